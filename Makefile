@@ -1,0 +1,37 @@
+# One command to see it play (`make demo`), one to test it (`make test`).
+# Both create .venv and install the project on first use; nothing but Python 3.10+ is needed.
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed-stamp
+OUT    ?= out
+
+.PHONY: install test test-slow lint demo bench clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test]'
+	touch $(STAMP)
+
+install: $(STAMP)
+
+lint: $(STAMP)
+	$(BIN)/ruff check .
+
+test: lint
+	$(BIN)/python -m pytest -m "not slow" -q
+
+test-slow: $(STAMP)
+	$(BIN)/python -m pytest -m slow -q
+
+demo: $(STAMP)
+	mkdir -p $(OUT)
+	$(BIN)/tt-drake serve --player idle --serves 5 --seed 1 --html $(OUT)/demo.html --json $(OUT)/demo.json
+
+bench: $(STAMP)
+	mkdir -p $(OUT)
+	$(BIN)/tt-drake bench --json $(OUT)/bench.json
+
+clean:
+	rm -rf $(VENV) $(OUT) build *.egg-info .pytest_cache .ruff_cache

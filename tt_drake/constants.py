@@ -1,0 +1,209 @@
+"""Every geometric and physical constant of the table-tennis world, in one place.
+
+The model files in ``models/`` are generated from these values (``tt-drake models``; a test checks
+that the committed files are up to date), and the numpy ball model, the launcher, the referee and
+the tests all read them from here.
+
+Frame (DESIGN.md): SI units; world origin on the floor under the table centre, z up, +y along
+the table from the robot's end to the launcher's end, x completing a right-handed frame, so +x is
+the robot's forehand (right-hand) side.
+
+Sources are in ``../shared/reference/facts.md``: ITTF Laws 2.1-2.3 for table, net and ball; the
+MPI table-tennis simulator (RobotLearning/optimpoly) for drag, Magnus and the lab's layout.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+GRAVITY = 9.81  # m/s^2
+
+
+@dataclass(frozen=True)
+class Table:
+    """ITTF table (Law 2.1): 2.74 m x 1.525 m, playing surface 0.76 m above the floor."""
+
+    length: float = 2.74
+    width: float = 1.525
+    surface_z: float = 0.76
+    thickness: float = 0.03
+    leg_inset: float = 0.2
+
+    @property
+    def robot_edge_y(self) -> float:
+        """The table edge on the robot's side (y = -1.37)."""
+        return -0.5 * self.length
+
+    @property
+    def opponent_edge_y(self) -> float:
+        return 0.5 * self.length
+
+
+@dataclass(frozen=True)
+class Net:
+    """ITTF net (Law 2.2): top 15.25 cm above the surface, posts 15.25 cm outside the side lines."""
+
+    height: float = 0.1525
+    overhang: float = 0.1525
+    thickness: float = 0.01  # collision box; >= 5-10 mm against tunnelling (facts.md section 4)
+    post_radius: float = 0.01
+
+    @property
+    def half_span(self) -> float:
+        return 0.5 * TABLE.width + self.overhang
+
+
+@dataclass(frozen=True)
+class Ball:
+    """ITTF ball (Law 2.3) and its aerodynamics.
+
+    Drag acceleration a = -k |v| v with k = rho C_D A / (2 m) ~ 0.14 1/m; Magnus acceleration
+    a = C_L (omega x v) with the MPI simulator's C_L = 0.001 (facts.md section 1).
+    """
+
+    radius: float = 0.020
+    mass: float = 0.0027
+    drag_k: float = 0.14
+    magnus_cl: float = 0.001
+
+    @property
+    def inertia(self) -> float:
+        """Thin hollow sphere: I = 2/3 m R^2."""
+        return 2.0 / 3.0 * self.mass * self.radius**2
+
+
+@dataclass(frozen=True)
+class RobotMount:
+    """The WAM hangs from the ceiling above the robot's end of the table, as in the MPI lab.
+
+    ``mount_*`` is the base plate (0.95 m above the table surface, 1.15 m behind the robot's table
+    edge); the shoulder (where joints 1 and 2 intersect, the origin of DH frame 0) hangs
+    ``base_to_shoulder`` below it (Barrett WAM manual: 0.346 m).
+    """
+
+    mount_x: float = 0.0
+    mount_y: float = -1.37 - 1.15
+    mount_z: float = 0.76 + 0.95
+    base_to_shoulder: float = 0.346
+
+    @property
+    def shoulder(self) -> tuple[float, float, float]:
+        return (self.mount_x, self.mount_y, self.mount_z - self.base_to_shoulder)
+
+
+@dataclass(frozen=True)
+class Planes:
+    """Virtual planes across the table's long axis (constant y).
+
+    ``hitting_y``: the virtual hitting plane, 0.7 m in front of the robot base (the MPI lab used
+    0.3-0.7 m). ``observation_y``: the virtual plane s after which the hitting-point predictor
+    collects its four observations (paper section II-C.1); the net plane.
+    """
+
+    hitting_y: float = -1.37 - 1.15 + 0.70
+    observation_y: float = 0.0
+
+
+@dataclass(frozen=True)
+class HittingRegion:
+    """The rectangle on the virtual hitting plane that ``default`` serves cross (about 1 m^2 on
+    the robot's forehand; paper section III-A)."""
+
+    x_min: float = -0.15
+    x_max: float = 0.85
+    z_min: float = 0.95
+    z_max: float = 1.85
+
+    @property
+    def area(self) -> float:
+        return (self.x_max - self.x_min) * (self.z_max - self.z_min)
+
+    def contains(self, x: float, z: float) -> bool:
+        return self.x_min <= x <= self.x_max and self.z_min <= z <= self.z_max
+
+
+@dataclass(frozen=True)
+class LandingTarget:
+    """Default landing target: the centre of the opponent's half."""
+
+    x: float = 0.0
+    y: float = 0.25 * 2.74
+    z: float = 0.76
+
+
+@dataclass(frozen=True)
+class ContactSurface:
+    """Point-contact properties of one collision geometry (Hunt-Crossley dissipation d in s/m)."""
+
+    stiffness: float
+    dissipation: float
+    friction: float
+
+
+def combined_friction(mu_a: float, mu_b: float) -> float:
+    """Drake's rule for two geometries' friction: mu = 2 mu_a mu_b / (mu_a + mu_b)."""
+    return 2.0 * mu_a * mu_b / (mu_a + mu_b)
+
+
+def surface_friction_for(combined: float, ball_mu: float) -> float:
+    """The surface coefficient that, combined with the ball's by Drake's rule, gives ``combined``."""
+    return combined * ball_mu / (2.0 * ball_mu - combined)
+
+
+@dataclass(frozen=True)
+class Contact:
+    """Calibrated contact model (facts.md section 4; checked by tests/systems/test_world_physics.py).
+
+    The ball is stiff and lossless so that each surface sets its own bounce. Hunt-Crossley
+    restitution depends only on d * v_impact (see ``tt_drake.ball_model.hunt_crossley_restitution``):
+    table d is chosen so that a 30 cm drop rebounds 23 cm (ITTF Law 2.1.3), the racket's so that
+    the normal restitution at 8 m/s is 0.78 (MPI simulator).
+    """
+
+    ball_stiffness: float = 1.0e7
+    ball_friction: float = 1.0
+    table_stiffness: float = 1.0e5
+    table_dissipation: float = 0.0835
+    table_friction_combined: float = 0.25
+    racket_stiffness: float = 3.0e4
+    racket_dissipation: float = 0.043
+    racket_friction_combined: float = 0.9
+    floor_stiffness: float = 1.0e5
+    floor_dissipation: float = 0.5
+    floor_friction_combined: float = 0.5
+    net_stiffness: float = 1.0e4
+    net_dissipation: float = 2.0
+    net_friction_combined: float = 0.5
+    robot_stiffness: float = 1.0e5
+    robot_dissipation: float = 0.2
+    robot_friction_combined: float = 0.5
+
+    def _surface(self, name: str) -> ContactSurface:
+        combined = getattr(self, f"{name}_friction_combined")
+        return ContactSurface(
+            stiffness=getattr(self, f"{name}_stiffness"),
+            dissipation=getattr(self, f"{name}_dissipation"),
+            friction=surface_friction_for(combined, self.ball_friction),
+        )
+
+    def surface(self, name: str) -> ContactSurface:
+        """Properties of ``ball``, ``table``, ``racket``, ``floor``, ``net`` or ``robot``."""
+        if name == "ball":
+            return ContactSurface(self.ball_stiffness, 0.0, self.ball_friction)
+        return self._surface(name)
+
+    def effective_dissipation(self, name: str) -> float:
+        """Dissipation of the ball-``name`` pair, by Drake's rule for combining d:
+        d = k_ball / (k_ball + k_surface) * d_surface (the ball's own d is zero)."""
+        s = self.surface(name)
+        return self.ball_stiffness / (self.ball_stiffness + s.stiffness) * s.dissipation
+
+
+TABLE = Table()
+NET = Net()
+BALL = Ball()
+MOUNT = RobotMount()
+PLANES = Planes()
+HITTING_REGION = HittingRegion()
+TARGET = LandingTarget()
+CONTACT = Contact()
