@@ -1,0 +1,30 @@
+"""``python -m tt_drake.modelgen``: rewrite every generated file in ``models/``."""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+
+MODELS_DIR = Path(__file__).resolve().parents[2] / "models"
+
+
+def generated_files() -> dict:
+    """File name -> function returning its text, over every generator module."""
+    files = {}
+    for module in ("world", "wam"):
+        try:
+            mod = importlib.import_module(f"tt_drake.modelgen.{module}")
+        except ModuleNotFoundError:
+            continue
+        files.update(getattr(mod, "GENERATED", {}))
+    return files
+
+
+def main() -> None:
+    for name, make in generated_files().items():
+        (MODELS_DIR / name).write_text(make())
+        print(f"wrote {MODELS_DIR / name}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,158 @@
+"""Serve distributions of the ball launcher: ``default``, ``real`` and ``fixed``.
+
+A serve is the ball's launch state ``(p, v, omega)`` (9 floats, world frame). Every serve is drawn
+from a ``numpy.random.Generator`` seeded per episode, so any episode can be replayed.
+
+- ``default``: a launcher 0.2 m behind the opponent's table edge and 0.15 m above the surface (the
+  MPI lab's ball gun, facts.md section 2), its lateral position and launch velocity drawn from
+  uniform boxes; a draw is kept only if the ball model predicts one bounce on the robot's half, net
+  clearance, and a crossing of the virtual hitting plane inside :data:`HITTING_REGION`.
+- ``real``: real serves measured right after a human or robot hit, from
+  google-deepmind/competitive_robot_table_tennis (``serves.json``, CC-BY 4.0, Copyright 2025 Google
+  LLC; D'Ambrosio et al., "Achieving Human Level Competitive Robot Table Tennis", ICRA 2025), kept
+  when the ball model predicts that the ball bounces once on the robot's half and crosses the
+  hitting plane inside the (slightly enlarged) hitting region. Their frame's origin is the table
+  surface centre, so z is shifted by the table height.
+- ``fixed``: one repeatable serve for debugging.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from tt_drake.ball_model import BallModel, PlaneCrossing
+from tt_drake.constants import HITTING_REGION, PLANES, TABLE
+
+DISTRIBUTIONS = ("default", "real", "fixed")
+
+#: Launch position of the ``fixed`` serve and the centre of the ``default`` launcher (m).
+LAUNCHER_Y = TABLE.opponent_edge_y + 0.2
+LAUNCHER_Z = TABLE.surface_z + 0.15
+FIXED_SERVE = (0.1, LAUNCHER_Y, LAUNCHER_Z, 0.25, -5.2, 3.0, 0.0, 0.0, 0.0)
+
+#: Box of the ``default`` distribution: launcher x (m) and launch velocity (m/s).
+DEFAULT_X_RANGE = (-0.4, 0.6)
+DEFAULT_V_RANGES = ((-1.5, 1.5), (-8.0, -3.0), (1.0, 6.0))
+
+
+class ServeError(ValueError):
+    """A serve distribution cannot be used (unknown name, missing or malformed data file)."""
+
+
+@dataclass(frozen=True)
+class Serve:
+    """One serve: the launch state and the model's prediction of its flight."""
+
+    launch_state: np.ndarray  # (9,) p, v, omega
+    crossing: PlaneCrossing  # at the virtual hitting plane
+    source_id: int = -1  # index into serves.json for ``real`` serves
+
+    @property
+    def bounce_y(self) -> float:
+        return float(self.crossing.bounces[-1].position[1])
+
+
+def serve_is_valid(model: BallModel, state: np.ndarray, region_margin: float = 0.0):
+    """The model's crossing if the serve bounces exactly once on the robot's half (after any
+    bounces on the opponent's half), clears the net and crosses the hitting plane inside the region
+    (grown by ``region_margin``); otherwise None."""
+    crossing = model.predict_plane(state, PLANES.hitting_y)
+    if crossing is None:
+        return None
+    robot_half = [b for b in crossing.bounces if b.position[1] < 0.0]
+    if len(robot_half) != 1 or crossing.bounces[-1] is not robot_half[0]:
+        return None
+    if state[1] > 0.0:
+        clearance = model.net_clearance(state)
+        if clearance is None or clearance < 0.0:
+            return None
+    x, z = crossing.position[0], crossing.position[2]
+    r = HITTING_REGION
+    m = region_margin
+    if not (r.x_min - m <= x <= r.x_max + m and r.z_min - m <= z <= r.z_max + m):
+        return None
+    return crossing
+
+
+def real_serves_path() -> Path:
+    """Where ``serves.json`` is looked for: $TT_DRAKE_SERVES, else ../shared/data/ball-states/
+    beside the project root."""
+    import os
+
+    env = os.environ.get("TT_DRAKE_SERVES")
+    if env:
+        return Path(env)
+    root = Path(__file__).resolve().parents[1]
+    return root.parent / "shared" / "data" / "ball-states" / "serves.json"
+
+
+def load_real_states(path: Path | None = None) -> np.ndarray:
+    """All real serve states from ``serves.json`` as an (N, 9) array in the world frame."""
+    path = Path(path) if path is not None else real_serves_path()
+    try:
+        records = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise ServeError(f"real serves file not found: {path} (set TT_DRAKE_SERVES)") from None
+    except (OSError, json.JSONDecodeError) as err:
+        raise ServeError(f"cannot read real serves file {path}: {err}") from None
+    keys = ("pos_x", "pos_y", "pos_z", "vel_x", "vel_y", "vel_z", "w_vel_x", "w_vel_y", "w_vel_z")
+    try:
+        states = np.array([[float(r[k]) for k in keys] for r in records])
+    except (KeyError, TypeError, ValueError) as err:
+        raise ServeError(f"malformed real serves file {path}: {err}") from None
+    states[:, 2] += TABLE.surface_z
+    return states
+
+
+class ServeSampler:
+    """Draws serves of one distribution; ``sample(seed)`` is a pure function of the seed."""
+
+    def __init__(self, distribution: str = "default", spin_max: float = 0.0,
+                 real_path: Path | None = None, model: BallModel | None = None):
+        if distribution not in DISTRIBUTIONS:
+            raise ServeError(
+                f"unknown serve distribution {distribution!r}; choose one of {DISTRIBUTIONS}")
+        if spin_max < 0.0:
+            raise ServeError(f"spin_max must be >= 0, got {spin_max}")
+        self.distribution = distribution
+        self.spin_max = spin_max
+        self.model = model or BallModel(dt=4e-3)
+        self._real: list[tuple[int, np.ndarray, PlaneCrossing]] | None = None
+        self._real_path = real_path
+
+    def real_pool(self) -> list[tuple[int, np.ndarray, PlaneCrossing]]:
+        """The real serves that qualify (computed once): (id, state, crossing)."""
+        if self._real is None:
+            pool = []
+            for i, state in enumerate(load_real_states(self._real_path)):
+                crossing = serve_is_valid(self.model, state, region_margin=0.1)
+                if crossing is not None:
+                    pool.append((i, state, crossing))
+            if not pool:
+                raise ServeError("no real serve reaches the robot's hitting region")
+            self._real = pool
+        return self._real
+
+    def sample(self, seed: int) -> Serve:
+        rng = np.random.default_rng(seed)
+        if self.distribution == "fixed":
+            state = np.array(FIXED_SERVE, dtype=float)
+            crossing = self.model.predict_plane(state, PLANES.hitting_y)
+            return Serve(state, crossing)
+        if self.distribution == "real":
+            pool = self.real_pool()
+            i, state, crossing = pool[int(rng.integers(len(pool)))]
+            return Serve(state.copy(), crossing, source_id=i)
+        for _ in range(1000):
+            x0 = rng.uniform(*DEFAULT_X_RANGE)
+            v = [rng.uniform(lo, hi) for lo, hi in DEFAULT_V_RANGES]
+            w = rng.uniform(-self.spin_max, self.spin_max, 3) if self.spin_max > 0 else np.zeros(3)
+            state = np.array([x0, LAUNCHER_Y, LAUNCHER_Z, *v, *w])
+            crossing = serve_is_valid(self.model, state)
+            if crossing is not None:
+                return Serve(state, crossing)
+        raise ServeError("no valid serve found in 1000 draws; check the serve configuration")
