@@ -1,0 +1,181 @@
+"""Build the serve diagram for a scenario and a player, and run serve episodes on it.
+
+The diagram (DESIGN.md): BallLauncher, MultibodyPlant (WAM + racket, table, net, floor, ball),
+Aerodynamics, the player's trajectory source feeding Drake's InverseDynamicsController, and the
+Referee. It is built once; each episode restores a saved context
+(``SetTimeStateAndParametersFrom`` + ``Initialize``, facts.md section 4), sets the launcher's seed,
+puts the ball at the launch state and simulates until the predicted crossing of the hitting plane
+plus ``Scenario.after_crossing``.
+
+Players are registered in :data:`PLAYERS`: a function that adds the player's systems to the
+builder and connects them to the controller's desired-state and desired-acceleration inputs.
+"""
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource, VectorLogSink
+
+from tt_drake.diagrams.scenario import Scenario
+from tt_drake.referee_rules import Outcome
+from tt_drake.systems.aerodynamics import Aerodynamics
+from tt_drake.systems.ball_launcher import BallLauncher
+from tt_drake.systems.referee import Referee
+from tt_drake.systems.world import World, add_world, make_simulator, set_ball_state
+
+
+class PlayerError(ValueError):
+    """An unknown player name or a player that cannot be built."""
+
+
+def _idle_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario) -> None:
+    """Hold the awaiting posture: constant desired state (q_await, 0) and zero acceleration."""
+    from tt_drake.wam_params import AWAITING
+
+    q = np.asarray(AWAITING, dtype=float)
+    desired = builder.AddNamedSystem("idle_player", ConstantVectorSource(np.r_[q, np.zeros(7)]))
+    builder.Connect(desired.get_output_port(), controller.get_input_port_desired_state())
+    accel = builder.AddNamedSystem("idle_acceleration", ConstantVectorSource(np.zeros(7)))
+    builder.Connect(accel.get_output_port(), controller.get_input_port_desired_acceleration())
+
+
+PLAYERS: dict[str, Callable] = {"idle": _idle_player}
+
+
+@dataclass
+class EpisodeResult:
+    seed: int
+    launch_state: list[float]
+    predicted_crossing: list[float]
+    duration: float
+    outcome: Outcome
+    wall_time: float
+    ball_path: np.ndarray | None = field(default=None, repr=False)
+
+    def as_dict(self) -> dict:
+        return {
+            "seed": self.seed,
+            "launch_state": [round(float(c), 5) for c in self.launch_state],
+            "predicted_crossing": [round(float(c), 5) for c in self.predicted_crossing],
+            "duration": round(self.duration, 4),
+            "wall_time": round(self.wall_time, 4),
+            **self.outcome.as_dict(),
+        }
+
+
+class ServeDiagram:
+    """The serve diagram of one scenario and player, built once and reused for every episode."""
+
+    def __init__(self, scenario: Scenario, player: str = "idle", meshcat=None,
+                 log_ball: bool = False):
+        if player not in PLAYERS:
+            raise PlayerError(f"unknown player {player!r}; choose one of {', '.join(PLAYERS)}")
+        self.scenario = scenario
+        builder = DiagramBuilder()
+        world = add_world(builder, scenario.world)
+        self.world = world
+        plant = world.plant
+        self.launcher = builder.AddNamedSystem("ball_launcher", BallLauncher(scenario.launcher))
+        aero = builder.AddNamedSystem("aerodynamics", Aerodynamics(
+            plant.num_velocities(), world.ball_body.floating_velocities_start_in_v(),
+            scenario.aerodynamics))
+        builder.Connect(plant.get_state_output_port(world.ball), aero.get_input_port(0))
+        builder.Connect(aero.get_output_port(0), plant.get_applied_generalized_force_input_port())
+        self.referee = builder.AddNamedSystem("referee", self._make_referee())
+        builder.Connect(plant.get_state_output_port(world.ball), self.referee.get_input_port(0))
+        builder.Connect(plant.get_body_poses_output_port(), self.referee.get_input_port(1))
+        builder.Connect(plant.get_contact_results_output_port(), self.referee.get_input_port(2))
+        self.controller = None
+        if world.robot is not None:
+            from tt_drake.systems.wam import add_wam_controller
+
+            c = scenario.controller
+            self.controller = add_wam_controller(builder, plant, world.robot, c.kp, c.ki, c.kd)
+            PLAYERS[player](builder, world, self.controller, scenario)
+        self.ball_logger = None
+        if log_ball:
+            self.ball_logger = builder.AddNamedSystem("ball_logger", VectorLogSink(13, 1.0 / 120))
+            builder.Connect(plant.get_state_output_port(world.ball),
+                            self.ball_logger.get_input_port())
+        self.visualizer = None
+        if meshcat is not None:
+            from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
+
+            self.visualizer = MeshcatVisualizer.AddToBuilder(
+                builder, world.scene_graph, meshcat, MeshcatVisualizerParams(publish_period=1 / 60))
+        self.diagram = builder.Build()
+        self.diagram.set_name("serve_diagram")
+        self.simulator = make_simulator(self.diagram, scenario.world)
+        self.context = self.simulator.get_mutable_context()
+        self._set_awaiting_posture()
+        self._initial = self.context.Clone()
+
+    def _make_referee(self) -> Referee:
+        world, plant = self.world, self.world.plant
+        kwargs = {}
+        if world.robot is not None:
+            from tt_drake.systems.wam import RACKET_CENTER_FRAME
+
+            frame = plant.GetFrameByName(RACKET_CENTER_FRAME, world.robot)
+            offset = frame.GetFixedPoseInBodyFrame().translation()
+            robot_bodies = [plant.get_body(i).index() for i in plant.GetBodyIndices(world.robot)]
+            inspector = world.scene_graph.model_inspector()
+            table_ids = [g for g in plant.GetCollisionGeometriesForBody(plant.world_body())
+                         if inspector.GetName(g).endswith("table_top")]
+            kwargs = dict(racket_body_index=frame.body().index(), racket_offset=offset,
+                          robot_body_indices=robot_bodies, table_geometry_ids=table_ids)
+        return Referee(self.scenario.referee, self.scenario.referee_rate, **kwargs)
+
+    def _set_awaiting_posture(self) -> None:
+        if self.world.robot is None:
+            return
+        from tt_drake.wam_params import AWAITING
+
+        plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
+        self.world.plant.SetPositions(plant_context, self.world.robot, np.asarray(AWAITING))
+
+    def run(self, seed: int, start_time: float = 0.0) -> EpisodeResult:
+        """Simulate one serve episode from ``seed``, starting the clock at ``start_time`` (used to
+        lay several episodes end to end in one Meshcat recording)."""
+        wall = time.perf_counter()
+        self.context.SetTimeStateAndParametersFrom(self._initial)
+        self.context.SetTime(start_time)
+        launcher_context = self.launcher.GetMyMutableContextFromRoot(self.context)
+        self.launcher.set_seed(launcher_context, seed)
+        serve = self.launcher.serve(launcher_context)
+        plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
+        set_ball_state(self.world, plant_context, serve.launch_state)
+        if self.ball_logger is not None:
+            self.ball_logger.GetMyMutableContextFromRoot(self.context)  # log is per context
+            self.ball_logger.FindMutableLog(self.context).Clear()
+        duration = float(serve.crossing.t + self.scenario.after_crossing)
+        self.simulator.Initialize()
+        self.simulator.AdvanceTo(start_time + duration)
+        outcome = self.referee.GetOutputPort("outcome").Eval(
+            self.referee.GetMyContextFromRoot(self.context))
+        path = None
+        if self.ball_logger is not None:
+            path = self.ball_logger.FindLog(self.context).data()[4:7].T.copy()
+        crossing = np.r_[serve.crossing.position, serve.crossing.velocity, serve.crossing.t]
+        return EpisodeResult(seed, list(serve.launch_state), list(crossing), duration, outcome,
+                             time.perf_counter() - wall, path)
+
+
+def episode_seed(base_seed: int, index: int) -> int:
+    """The seed of episode ``index`` of a run with ``base_seed``: every episode can be replayed
+    alone with ``--serves 1 --seed`` of this value... via ``ServeDiagram.run(episode_seed(...))``."""
+    return int(np.random.SeedSequence([base_seed, index]).generate_state(1)[0])
+
+
+def summarize(results: list[EpisodeResult]) -> dict:
+    n = len(results)
+    return {
+        "serves": n,
+        "hit_rate": sum(r.outcome.hit for r in results) / n if n else 0.0,
+        "return_rate": sum(r.outcome.returned for r in results) / n if n else 0.0,
+        "target_rate": sum(r.outcome.on_target for r in results) / n if n else 0.0,
+        "mean_reward": sum(r.outcome.reward for r in results) / n if n else 0.0,
+    }

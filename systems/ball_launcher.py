@@ -1,0 +1,60 @@
+"""BallLauncher LeafSystem: serves one ball per episode, reproducible from the episode seed.
+
+The serve is a pure function of the seed (a numeric parameter of the system), drawn by
+:class:`tt_drake.serves.ServeSampler` from the configured distribution (``default``, ``real`` or
+``fixed``; see that module). Outputs:
+
+- ``launch_state``: the ball's launch state (p, v, omega), 9 floats; the episode runner puts the
+  plant's ball there when the episode starts;
+- ``serve``: the :class:`tt_drake.serves.Serve` (launch state and the model's predicted crossing
+  of the virtual hitting plane), for recordings and analysis.
+
+Both outputs depend only on the seed parameter and are cached, so the sampling (tens of ms) runs
+once per episode.
+"""
+
+
+from dataclasses import dataclass
+
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector, LeafSystem, NumericParameterIndex
+
+from tt_drake.serves import Serve, ServeSampler
+
+
+@dataclass
+class LauncherConfig:
+    distribution: str = "default"
+    spin_max: float = 0.0  # rad/s per component; 0 serves without spin
+    real_serves: str = ""  # path to serves.json; empty: ../shared/data/ball-states/serves.json
+
+
+class BallLauncher(LeafSystem):
+    def __init__(self, config: LauncherConfig | None = None):
+        super().__init__()
+        self.config = config or LauncherConfig()
+        self.sampler = ServeSampler(self.config.distribution, self.config.spin_max,
+                                    self.config.real_serves or None)
+        self._seed_index = self.DeclareNumericParameter(BasicVector([0.0]))
+        depends_on_seed = {self.numeric_parameter_ticket(NumericParameterIndex(self._seed_index))}
+        self._serve_port = self.DeclareAbstractOutputPort(
+            "serve", lambda: AbstractValue.Make(object()), self._calc_serve,
+            prerequisites_of_calc=depends_on_seed)
+        self.DeclareVectorOutputPort("launch_state", 9, self._calc_launch_state,
+                                     prerequisites_of_calc={self._serve_port.cache_entry().ticket()})
+
+    def set_seed(self, context, seed: int) -> None:
+        """Choose the episode: the serve is a pure function of ``seed``."""
+        context.get_mutable_numeric_parameter(self._seed_index).SetAtIndex(0, float(seed))
+
+    def seed(self, context) -> int:
+        return int(context.get_numeric_parameter(self._seed_index).GetAtIndex(0))
+
+    def _calc_serve(self, context, output):
+        output.set_value(self.sampler.sample(self.seed(context)))
+
+    def serve(self, context) -> Serve:
+        return self._serve_port.Eval(context)
+
+    def _calc_launch_state(self, context, output):
+        output.SetFromVector(self._serve_port.Eval(context).launch_state)

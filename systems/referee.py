@@ -1,0 +1,80 @@
+"""Referee LeafSystem: watches the ball (and the robot's contacts with the table) and judges the
+episode with :mod:`tt_drake.referee_rules`.
+
+Inputs:
+- ``ball_state``: the plant's state output for the ball (quaternion, p, omega, v; 13 floats);
+- ``body_poses``: the plant's body poses, to find the racket centre (optional);
+- ``contact_results``: the plant's contact results, to see robot-table contact (optional).
+
+A periodic discrete update at ``rate`` Hz (default 250 Hz) samples them; its abstract state holds
+the last sample, the contact events so far and whether the robot touched the table. Output
+``outcome``: the :class:`tt_drake.referee_rules.Outcome` of the episode so far.
+"""
+
+from __future__ import annotations
+
+from pydrake.common.value import AbstractValue
+from pydrake.math import RigidTransform
+from pydrake.multibody.plant import ContactResults
+from pydrake.systems.framework import LeafSystem
+
+from tt_drake.referee_rules import ContactDetector, Outcome, RefereeConfig, judge
+
+
+class Referee(LeafSystem):
+    def __init__(self, config: RefereeConfig | None = None, rate: float = 250.0,
+                 racket_body_index=None, racket_offset=(0.0, 0.0, 0.0),
+                 robot_body_indices=(), table_geometry_ids=()):
+        super().__init__()
+        self.config = config or RefereeConfig()
+        self.detector = ContactDetector(self.config)
+        self._racket_body = racket_body_index
+        self._racket_offset = list(racket_offset)
+        self._robot_bodies = set(robot_body_indices)
+        self._table_geometries = set(table_geometry_ids)
+        self.DeclareVectorInputPort("ball_state", 13)
+        self.DeclareAbstractInputPort("body_poses", AbstractValue.Make([RigidTransform()]))
+        self.DeclareAbstractInputPort("contact_results", AbstractValue.Make(ContactResults()))
+        # (last sample, events, robot touched table)
+        self._state_index = self.DeclareAbstractState(AbstractValue.Make((None, (), False)))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, self._update)
+        self.DeclareAbstractOutputPort(
+            "outcome", lambda: AbstractValue.Make(Outcome("missed", False, False, False)),
+            self._calc_outcome)
+
+    def _racket_center(self, context):
+        if self._racket_body is None or not self.get_input_port(1).HasValue(context):
+            return None
+        pose = self.get_input_port(1).Eval(context)[int(self._racket_body)]
+        return pose.multiply(self._racket_offset)
+
+    def _robot_touches_table(self, context) -> bool:
+        if not self._table_geometries or not self.get_input_port(2).HasValue(context):
+            return False
+        results = self.get_input_port(2).Eval(context)
+        for i in range(results.num_point_pair_contacts()):
+            pair = results.point_pair_contact_info(i)
+            if (pair.bodyA_index() in self._robot_bodies or pair.bodyB_index() in self._robot_bodies):
+                ids = (pair.point_pair().id_A, pair.point_pair().id_B)
+                if any(g in self._table_geometries for g in ids):
+                    return True
+        return False
+
+    def _update(self, context, state):
+        prev, events, touched = context.get_abstract_state(self._state_index).get_value()
+        s = self.get_input_port(0).Eval(context)
+        cur = ContactDetector.sample(context.get_time(), s[4:7], s[10:13], s[7:10],
+                                     self._racket_center(context))
+        if prev is not None:
+            event = self.detector.detect(prev, cur)
+            if event is not None:
+                events = (*events, event)
+        touched = touched or self._robot_touches_table(context)
+        state.get_mutable_abstract_state(self._state_index).set_value((cur, events, touched))
+
+    def events(self, context):
+        return list(context.get_abstract_state(self._state_index).get_value()[1])
+
+    def _calc_outcome(self, context, output):
+        _, events, touched = context.get_abstract_state(self._state_index).get_value()
+        output.set_value(judge(list(events), touched, self.config))
