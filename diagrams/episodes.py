@@ -18,13 +18,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, VectorLogSink
-
 from tt_drake.diagrams.scenario import Scenario
-from tt_drake.referee_rules import Outcome
 from tt_drake.systems.aerodynamics import Aerodynamics
 from tt_drake.systems.ball_launcher import BallLauncher
 from tt_drake.systems.referee import Referee
 from tt_drake.systems.world import World, add_world, make_simulator, set_ball_state
+
+from tt_drake.referee_rules import Outcome
 
 
 class PlayerError(ValueError):
@@ -165,8 +165,8 @@ class ServeDiagram:
 
 
 def episode_seed(base_seed: int, index: int) -> int:
-    """The seed of episode ``index`` of a run with ``base_seed``: every episode can be replayed
-    alone with ``--serves 1 --seed`` of this value... via ``ServeDiagram.run(episode_seed(...))``."""
+    """The seed of episode ``index`` of a run with ``base_seed``; any episode can be replayed
+    alone with ``ServeDiagram.run(episode_seed(base_seed, index))``."""
     return int(np.random.SeedSequence([base_seed, index]).generate_state(1)[0])
 
 

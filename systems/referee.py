@@ -54,7 +54,8 @@ class Referee(LeafSystem):
         results = self.get_input_port(2).Eval(context)
         for i in range(results.num_point_pair_contacts()):
             pair = results.point_pair_contact_info(i)
-            if (pair.bodyA_index() in self._robot_bodies or pair.bodyB_index() in self._robot_bodies):
+            bodies = (pair.bodyA_index(), pair.bodyB_index())
+            if any(b in self._robot_bodies for b in bodies):
                 ids = (pair.point_pair().id_A, pair.point_pair().id_B)
                 if any(g in self._table_geometries for g in ids):
                     return True

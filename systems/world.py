@@ -95,7 +95,8 @@ def ball_state_indices(world: World) -> tuple[int, int]:
     q = (quaternion wxyz, position xyz), v = (angular velocity, translational velocity)."""
     plant = world.plant
     body = world.ball_body
-    return body.floating_positions_start(), plant.num_positions() + body.floating_velocities_start_in_v()
+    v_start = plant.num_positions() + body.floating_velocities_start_in_v()
+    return body.floating_positions_start(), v_start
 
 
 def set_ball_state(world: World, plant_context, launch_state) -> None:

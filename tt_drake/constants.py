@@ -150,16 +150,16 @@ def combined_friction(mu_a: float, mu_b: float) -> float:
 
 
 def surface_friction_for(combined: float, ball_mu: float) -> float:
-    """The surface coefficient that, combined with the ball's by Drake's rule, gives ``combined``."""
+    """The surface friction that gives ``combined`` with the ball's by Drake's rule."""
     return combined * ball_mu / (2.0 * ball_mu - combined)
 
 
 @dataclass(frozen=True)
 class Contact:
-    """Calibrated contact model (facts.md section 4; checked by tests/systems/test_world_physics.py).
+    """Calibrated contact model (facts.md section 4; tests/systems/test_world_physics.py).
 
     The ball is stiff and lossless so that each surface sets its own bounce. Hunt-Crossley
-    restitution depends only on d * v_impact (see ``tt_drake.ball_model.hunt_crossley_restitution``):
+    restitution depends only on d * v_impact (``ball_model.hunt_crossley_restitution``):
     table d = 0.064 s/m makes a 30 cm drop rebound 23.0 cm with drag included (ITTF Law 2.1.3;
     e = 0.90 at 2.4 m/s, 0.84 at 5 m/s); racket d = 0.050 s/m gives e = 0.79 at 8 m/s on a fixed
     plate, about 0.78 when the arm holds the racket (MPI simulator's racket value 0.78).

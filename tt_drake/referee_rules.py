@@ -99,7 +99,8 @@ class ContactDetector:
         if (v0[2] < 0.0 <= v1[2] and lo_z < contact_z + near and lo_z > TABLE.surface_z - near
                 and self._over_table(p0, p1)):
             # Where it touched: extrapolate the incoming segment to the contact height.
-            s = 0.0 if v0[2] >= 0 else min(1.0, max(0.0, (p0[2] - contact_z) / (p0[2] - lo_z + 1e-12)))
+            drop = p0[2] - lo_z + 1e-12
+            s = 0.0 if v0[2] >= 0 else min(1.0, max(0.0, (p0[2] - contact_z) / drop))
             pos = tuple(p0[i] + s * (p1[i] - p0[i]) for i in range(2)) + (contact_z,)
             return TABLE_CONTACT, pos
         mid = tuple(0.5 * (p0[i] + p1[i]) for i in range(3))

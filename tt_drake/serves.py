@@ -104,6 +104,8 @@ def load_real_states(path: Path | None = None) -> np.ndarray:
         states = np.array([[float(r[k]) for k in keys] for r in records])
     except (KeyError, TypeError, ValueError) as err:
         raise ServeError(f"malformed real serves file {path}: {err}") from None
+    if states.shape[0] == 0:
+        raise ServeError(f"real serves file {path} holds no serves")
     states[:, 2] += TABLE.surface_z
     return states
 

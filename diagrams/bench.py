@@ -1,0 +1,122 @@
+"""``tt-drake bench``: wall time per serve episode and real-time factor of the project's serve
+diagram, against a reference diagram measured in the same run.
+
+The reference has the same plant, contact model and integrator, and the arm under the same
+InverseDynamicsController, but follows a C++ ``TrajectorySource`` and has no Python system (no
+aerodynamics, launcher or referee): the ratio is what our Python systems cost. Both replay the
+same serves for the same durations; the launcher's serve sampling is timed separately.
+"""
+
+import time
+
+import numpy as np
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import TrajectorySource
+from pydrake.trajectories import PiecewisePolynomial
+from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
+from tt_drake.diagrams.scenario import Scenario
+from tt_drake.systems.world import add_world, make_simulator, set_ball_state
+
+from tt_drake.serves import ServeSampler
+
+
+def _swing(duration: float) -> PiecewisePolynomial:
+    """A smooth arm swing around the awaiting posture (cubic, zero end velocities)."""
+    from tt_drake.wam_params import AWAITING
+
+    q0 = np.asarray(AWAITING, dtype=float)
+    q1 = q0 + np.array([0.3, -0.2, 0.2, -0.3, 0.2, 0.2, 0.1])
+    times = [0.0, 0.5 * duration, duration]
+    knots = np.column_stack([q0, q1, q0])
+    return PiecewisePolynomial.CubicWithContinuousSecondDerivatives(
+        times, knots, np.zeros(7), np.zeros(7))
+
+
+class ReferenceDiagram:
+    def __init__(self, scenario: Scenario, duration: float):
+        from tt_drake.systems.wam import add_wam_controller
+
+        from tt_drake.wam_params import AWAITING
+
+        builder = DiagramBuilder()
+        self.world = add_world(builder, scenario.world)
+        c = scenario.controller
+        controller = add_wam_controller(builder, self.world.plant, self.world.robot, c.kp, c.ki,
+                                        c.kd)
+        traj = _swing(duration)
+        source = builder.AddNamedSystem("swing", TrajectorySource(traj, 1))
+        builder.Connect(source.get_output_port(), controller.get_input_port_desired_state())
+        accel = builder.AddNamedSystem("swing_acceleration",
+                                       TrajectorySource(traj.derivative(2)))
+        builder.Connect(accel.get_output_port(), controller.get_input_port_desired_acceleration())
+        self.diagram = builder.Build()
+        self.simulator = make_simulator(self.diagram, scenario.world)
+        self.context = self.simulator.get_mutable_context()
+        plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
+        self.world.plant.SetPositions(plant_context, self.world.robot, np.asarray(AWAITING))
+        self._initial = self.context.Clone()
+
+    def run(self, launch_state, duration: float) -> None:
+        self.context.SetTimeStateAndParametersFrom(self._initial)
+        set_ball_state(self.world, self.world.plant.GetMyMutableContextFromRoot(self.context),
+                       launch_state)
+        self.simulator.Initialize()
+        self.simulator.AdvanceTo(duration)
+
+
+def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str = "idle") -> dict:
+    seeds = [episode_seed(seed, i) for i in range(serves)]
+    sampler = ServeSampler(scenario.launcher.distribution, scenario.launcher.spin_max,
+                           scenario.launcher.real_serves or None)
+    t0 = time.perf_counter()
+    launch = [sampler.sample(s) for s in seeds]
+    sampling = (time.perf_counter() - t0) / serves
+    durations = [float(s.crossing.t + scenario.after_crossing) for s in launch]
+
+    project = ServeDiagram(scenario, player)
+    reference = ReferenceDiagram(scenario, max(durations))
+    project.run(seeds[0])  # warm caches (first Python calls, scalar conversions)
+    reference.run(launch[0].launch_state, durations[0])
+
+    t0 = time.perf_counter()
+    for s in seeds:
+        project.run(s)
+    project_wall = (time.perf_counter() - t0) / serves
+    t0 = time.perf_counter()
+    for serve, duration in zip(launch, durations, strict=True):
+        reference.run(serve.launch_state, duration)
+    reference_wall = (time.perf_counter() - t0) / serves
+    mean_duration = float(np.mean(durations))
+    result = {
+        "serves": serves, "player": player, "mean_episode_sim_time": mean_duration,
+        "project": {"wall_per_serve": project_wall,
+                    "real_time_factor": mean_duration / project_wall},
+        "reference": {"wall_per_serve": reference_wall,
+                      "real_time_factor": mean_duration / reference_wall},
+        "serve_sampling_per_serve": sampling,
+        "ratio_project_to_reference": project_wall / reference_wall,
+    }
+    try:
+        from tt_drake.benchmarks import bench_momp_planning
+    except ImportError:
+        pass
+    else:
+        result["momp_planning"] = bench_momp_planning()
+    return result
+
+
+def format_bench(r: dict) -> str:
+    lines = [
+        f"serve episodes: {r['serves']} ({r['player']} player), mean simulated time "
+        f"{r['mean_episode_sim_time']:.2f} s",
+        f"  project diagram    {1e3 * r['project']['wall_per_serve']:8.1f} ms/serve   "
+        f"{r['project']['real_time_factor']:5.1f}x real time",
+        f"  C++ reference      {1e3 * r['reference']['wall_per_serve']:8.1f} ms/serve   "
+        f"{r['reference']['real_time_factor']:5.1f}x real time",
+        f"  ratio project/reference: {r['ratio_project_to_reference']:.2f}",
+        f"  serve sampling (included in project): "
+        f"{1e3 * r['serve_sampling_per_serve']:.1f} ms/serve",
+    ]
+    if "momp_planning" in r:
+        lines.append(f"  MoMP planning: {r['momp_planning']}")
+    return "\n".join(lines)

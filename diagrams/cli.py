@@ -1,0 +1,145 @@
+"""The ``tt-drake`` command.
+
+    tt-drake serve  --player idle --serves N --seed S [--scenario default] [--distribution D]
+                    [--html out.html] [--json out.json]
+    tt-drake bench  [--serves N] [--json out.json]
+    tt-drake models  (rewrite the generated model files in models/)
+
+Bad input (an unknown or malformed scenario field, a missing model or data file, an unknown
+distribution or player, N <= 0, an unwritable output path) gives one line naming the problem on
+stderr and exit status 2, with no traceback and no partial output file.
+"""
+
+import argparse
+import sys
+
+EXIT_BAD_INPUT = 2
+
+
+class CliError(Exception):
+    """A user error: printed as one line, exit status 2."""
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {value}")
+    return value
+
+
+def _add_scenario_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scenario", default="default",
+                   help="scenario name (models/<name>.yaml) or YAML path (default: default)")
+    p.add_argument("--distribution", default=None,
+                   help="override the launcher's serve distribution: default, real or fixed")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="tt-drake", description=__doc__.split("\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    serve = sub.add_parser("serve", help="serve balls at a player and report what happened")
+    serve.add_argument("--player", default="idle", help="which player returns the serves")
+    serve.add_argument("--serves", type=_positive_int, default=10, help="number of serves")
+    serve.add_argument("--seed", type=int, default=0, help="base seed of the run")
+    serve.add_argument("--html", default=None, help="write a self-contained Meshcat recording")
+    serve.add_argument("--json", default=None, help="write the summary and one record per serve")
+    serve.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_scenario_options(serve)
+
+    bench = sub.add_parser("bench", help="time serve episodes against a C++ reference diagram")
+    bench.add_argument("--serves", type=_positive_int, default=10)
+    bench.add_argument("--seed", type=int, default=0)
+    bench.add_argument("--player", default="idle")
+    bench.add_argument("--json", default=None, help="write the measurements as JSON")
+    _add_scenario_options(bench)
+
+    sub.add_parser("models", help="rewrite the generated model files in models/")
+    return parser
+
+
+def _scenario(args):
+    from tt_drake.diagrams.scenario import load_scenario, validate
+
+    scenario = load_scenario(args.scenario)
+    if args.distribution is not None:
+        scenario.launcher.distribution = args.distribution
+        validate(scenario, "--distribution")
+    return scenario
+
+
+def _check_player(name: str) -> None:
+    from tt_drake.diagrams.episodes import PLAYERS, PlayerError
+
+    if name not in PLAYERS:
+        raise PlayerError(f"unknown player {name!r}; choose one of {', '.join(PLAYERS)}")
+
+
+def _serve(args) -> None:
+    from tt_drake.diagrams.serve import format_summary, run_serves
+
+    _check_player(args.player)
+    scenario = _scenario(args)
+    data = run_serves(scenario, args.player, args.serves, args.seed, args.html, args.json,
+                      progress=not args.quiet)
+    print(format_summary(data))
+    for path in (args.json, args.html):
+        if path:
+            print(f"wrote {path}")
+
+
+def _bench(args) -> None:
+    from tt_drake.diagrams.bench import format_bench, run_bench
+
+    from tt_drake.outputs import check_writable, write_json_atomic
+
+    _check_player(args.player)
+    scenario = _scenario(args)
+    if args.json:
+        check_writable(args.json)
+    result = run_bench(scenario, args.serves, args.seed, args.player)
+    print(format_bench(result))
+    if args.json:
+        write_json_atomic(args.json, result)
+        print(f"wrote {args.json}")
+
+
+def _models(_args) -> None:
+    from tt_drake.modelgen.__main__ import main as write_models
+
+    write_models()
+
+
+COMMANDS = {"serve": _serve, "bench": _bench, "models": _models}
+
+
+def _user_errors() -> tuple[type[BaseException], ...]:
+    from tt_drake.diagrams.episodes import PlayerError
+    from tt_drake.diagrams.scenario import ScenarioError
+    from tt_drake.systems.world import ModelFileError
+
+    from tt_drake.outputs import OutputError
+    from tt_drake.serves import ServeError
+
+    return (CliError, ScenarioError, ServeError, PlayerError, ModelFileError, OutputError)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        COMMANDS[args.command](args)
+    except _user_errors() as err:
+        print(f"tt-drake {args.command}: error: {err}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print(f"tt-drake {args.command}: interrupted", file=sys.stderr)
+        return 130
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
+

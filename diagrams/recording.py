@@ -1,0 +1,50 @@
+"""Meshcat recordings saved as one self-contained HTML file.
+
+Drake's Meshcat runs offline on localhost; ``StaticHtml()`` inlines three.js and the recorded
+animation, so the file opens in any browser with no network (facts.md section 4). Episodes are
+laid end to end on the recording's timeline; each ball path is drawn as a line and each landing
+point after a hit is marked (green: legal return, red: fault).
+"""
+
+import os
+
+import numpy as np
+from tt_drake.diagrams.episodes import EpisodeResult
+
+RETURN_COLOUR = (0.1, 0.8, 0.2, 1.0)
+FAULT_COLOUR = (0.9, 0.1, 0.1, 1.0)
+PATH_COLOUR = (1.0, 0.55, 0.1, 0.8)
+
+
+def make_meshcat():
+    """A Meshcat server bound to localhost; remote package fetches fail fast instead of hanging."""
+    os.environ.setdefault("DRAKE_ALLOW_NETWORK", "meshcat")
+    from pydrake.geometry import Meshcat, MeshcatParams
+
+    meshcat = Meshcat(MeshcatParams(host="localhost"))
+    meshcat.SetProperty("/Background", "visible", False)
+    return meshcat
+
+
+def draw_episode(meshcat, index: int, result: EpisodeResult) -> None:
+    """The ball's path as a line and the landing point as a small sphere."""
+    from pydrake.geometry import Rgba, Sphere
+    from pydrake.math import RigidTransform
+
+    if result.ball_path is not None and len(result.ball_path) > 1:
+        meshcat.SetLine(f"/episodes/{index:04d}/ball_path", np.asarray(result.ball_path).T, 2.0,
+                        Rgba(*PATH_COLOUR))
+    if result.outcome.landing is not None:
+        colour = RETURN_COLOUR if result.outcome.returned else FAULT_COLOUR
+        name = f"/episodes/{index:04d}/landing"
+        meshcat.SetObject(name, Sphere(0.03), Rgba(*colour))
+        x, y = result.outcome.landing
+        meshcat.SetTransform(name, RigidTransform([x, y, 0.76]))
+
+
+def mark_target(meshcat, x: float, y: float, radius: float) -> None:
+    from pydrake.geometry import Cylinder, Rgba
+    from pydrake.math import RigidTransform
+
+    meshcat.SetObject("/target", Cylinder(radius, 0.002), Rgba(1.0, 1.0, 0.0, 0.35))
+    meshcat.SetTransform("/target", RigidTransform([x, y, 0.761]))

@@ -1,0 +1,60 @@
+"""``tt-drake serve``: N serves at a player; a summary, JSON results and a Meshcat HTML file."""
+
+import sys
+
+from tqdm import tqdm
+from tt_drake.diagrams.episodes import ServeDiagram, episode_seed, summarize
+from tt_drake.diagrams.scenario import Scenario
+
+from tt_drake.outputs import check_writable, write_json_atomic, write_text_atomic
+
+
+def run_serves(scenario: Scenario, player: str, serves: int, seed: int, html: str | None = None,
+               json_path: str | None = None, progress: bool = True) -> dict:
+    """Run ``serves`` episodes; episode i uses ``episode_seed(seed, i)``. Returns the JSON dict."""
+    for path in (html, json_path):
+        if path:
+            check_writable(path)
+    meshcat = None
+    if html:
+        from tt_drake.diagrams.recording import make_meshcat, mark_target
+
+        meshcat = make_meshcat()
+        mark_target(meshcat, scenario.referee.target_x, scenario.referee.target_y,
+                    scenario.referee.target_radius)
+    diagram = ServeDiagram(scenario, player, meshcat=meshcat, log_ball=bool(html))
+    if meshcat is not None:
+        diagram.visualizer.StartRecording()
+    results = []
+    clock = 0.0
+    bar = tqdm(range(serves), desc=f"serving ({player})", unit="serve", file=sys.stderr,
+               disable=not progress)
+    for i in bar:
+        result = diagram.run(episode_seed(seed, i), start_time=clock)
+        results.append(result)
+        if meshcat is not None:
+            from tt_drake.diagrams.recording import draw_episode
+
+            draw_episode(meshcat, i, result)
+            clock += result.duration
+        bar.set_postfix(returned=f"{summarize(results)['return_rate']:.0%}")
+    summary = summarize(results)
+    data = {
+        "scenario": scenario.name, "player": player, "seed": seed,
+        "distribution": scenario.launcher.distribution,
+        "summary": summary, "episodes": [r.as_dict() for r in results],
+    }
+    if meshcat is not None:
+        diagram.visualizer.StopRecording()
+        diagram.visualizer.PublishRecording()
+        write_text_atomic(html, meshcat.StaticHtml())
+    if json_path:
+        write_json_atomic(json_path, data)
+    return data
+
+
+def format_summary(data: dict) -> str:
+    s = data["summary"]
+    return (f"{data['player']} player, {s['serves']} {data['distribution']} serves (seed "
+            f"{data['seed']}): hit {s['hit_rate']:.1%}, legal return {s['return_rate']:.1%}, "
+            f"on target {s['target_rate']:.1%}, mean reward {s['mean_reward']:.3f}")

@@ -1,0 +1,118 @@
+"""Referee: scripted ball trajectories (no robot) for every outcome class.
+
+The scripts fly the ball with the numpy model (table bounces included), add a floor and a net for
+the script's sake, and replace the ball's velocity at a chosen time to play the racket's hit. The
+referee sees only 250 Hz samples of the ball state, as in the Drake diagram.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from tt_drake.ball_model import BallModel
+from tt_drake.constants import NET, TABLE, TARGET
+from tt_drake.referee_rules import ContactDetector, RefereeConfig, judge
+
+MODEL = BallModel()
+R = MODEL.params.radius
+
+
+def script(launch, hit_at=None, hit_velocity=None, duration=2.5, rate=250.0, h=5e-4):
+    """Sampled states of a scripted flight; returns the referee's outcome."""
+    pos, vel, w = tuple(launch[0:3]), tuple(launch[3:6]), (0.0, 0.0, 0.0)
+    detector = ContactDetector(RefereeConfig(), MODEL)
+    events = []
+    t, next_sample, hit_done = 0.0, 0.0, False
+    while t < duration:
+        if t >= next_sample - 1e-12:
+            e = detector.update(t, pos, vel)
+            if e is not None:
+                events.append(e)
+            next_sample += 1.0 / rate
+        if hit_at is not None and not hit_done and t >= hit_at:
+            vel, hit_done = tuple(hit_velocity), True
+        new_p, new_v = MODEL.flight_step(pos, vel, w, h)
+        if new_p[2] < TABLE.surface_z + R <= pos[2] and MODEL.over_table(new_p[0], new_p[1]):
+            new_v, w = MODEL.bounce(new_v, w)
+            new_p = (new_p[0], new_p[1], TABLE.surface_z + R)
+        if new_p[2] < R and new_v[2] < 0:  # floor: a dead bounce
+            new_v = (0.5 * new_v[0], 0.5 * new_v[1], -0.5 * new_v[2])
+        net_top = TABLE.surface_z + NET.height
+        if pos[1] * new_p[1] <= 0 and new_p[2] < net_top + R and new_p[2] > TABLE.surface_z:
+            new_v = (0.2 * new_v[0], -0.1 * new_v[1], 0.2 * new_v[2])  # caught by the net
+            new_p = (new_p[0], math.copysign(R + 0.006, pos[1]), new_p[2])
+        pos, vel, t = new_p, new_v, t + h
+    return events
+
+
+SERVE = np.array([0.1, 1.57, 0.91, 0.25, -5.2, 3.0])
+
+
+def crossing_time():
+    return MODEL.predict_plane(np.r_[SERVE, 0, 0, 0], -1.82).t
+
+
+def return_velocity(target_y, vy=4.5):
+    """Bisection on v_z for a return from the hitting point that lands at (TARGET.x, target_y)."""
+    crossing = MODEL.predict_plane(np.r_[SERVE, 0, 0, 0], -1.82)
+    p = crossing.position
+    lo, hi = -2.0, 6.0
+    for _ in range(60):
+        vz = 0.5 * (lo + hi)
+        vx = (TARGET.x - p[0]) / ((target_y - p[1]) / vy)
+        c = MODEL.predict_plane(np.r_[p, vx, vy, vz, 0, 0, 0], target_y)
+        if c is None or c.bounces or c.position[2] < TABLE.surface_z + R:
+            lo = vz
+        else:
+            hi = vz
+    return np.array([vx, vy, hi])
+
+
+def test_missed_serve():
+    outcome = judge(script(SERVE))
+    assert outcome.outcome == "missed" and not outcome.hit and outcome.reward == 0.0
+    assert outcome.faults == []
+
+
+def test_legal_return_on_target():
+    events = script(SERVE, crossing_time(), return_velocity(TARGET.y))
+    outcome = judge(events)
+    assert [e.kind for e in events[:3]] == ["table", "racket", "table"]
+    assert outcome.outcome == "returned" and outcome.hit and outcome.on_target
+    assert outcome.landing[1] == pytest.approx(TARGET.y, abs=0.1)
+    assert outcome.target_distance < 0.1 and outcome.reward > 0.95
+
+
+def test_legal_return_off_target_earns_less():
+    outcome = judge(script(SERVE, crossing_time(), return_velocity(1.2)))
+    assert outcome.outcome == "returned" and not outcome.on_target
+    assert 0.6 < outcome.reward < 0.95
+
+
+def test_net_fault():
+    outcome = judge(script(SERVE, crossing_time(), np.array([0.0, 10.0, 0.0])))
+    assert outcome.outcome == "fault" and outcome.faults == ["net"]
+    assert outcome.reward == pytest.approx(0.2)
+
+
+def test_out_long():
+    outcome = judge(script(SERVE, crossing_time(), np.array([0.0, 9.0, 3.0])))
+    assert outcome.outcome == "fault" and outcome.faults == ["out"]
+
+
+def test_own_half():
+    outcome = judge(script(SERVE, crossing_time(), np.array([0.0, 4.0, -1.0])))
+    assert outcome.faults == ["own_half"] and outcome.landing[1] < 0
+
+
+def test_double_bounce_before_the_hit_is_recorded():
+    slow = np.array([0.1, -0.5, 0.95, 0.0, -0.8, 0.0])  # short bounces on the robot's half
+    outcome = judge(script(slow, duration=3.0))
+    assert outcome.outcome == "missed" and "double_bounce" in outcome.faults
+
+
+def test_robot_touching_the_table_caps_the_reward():
+    events = script(SERVE, crossing_time(), return_velocity(TARGET.y))
+    outcome = judge(events, robot_touched_table=True)
+    assert outcome.returned and "robot_table" in outcome.faults and outcome.reward <= 0.1

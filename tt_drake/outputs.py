@@ -1,0 +1,46 @@
+"""Writing result files safely: check a destination before a long run, write atomically after.
+
+Nothing half-written is ever left behind: text goes to a temporary file in the destination's
+folder and is renamed over the destination only when complete.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+
+
+class OutputError(OSError):
+    """An output path cannot be written."""
+
+
+def check_writable(path: str | os.PathLike) -> Path:
+    """Fail early (before any simulation) if ``path`` cannot be created or replaced."""
+    path = Path(path)
+    if path.is_dir():
+        raise OutputError(f"output path is a directory: {path}")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise OutputError(f"output folder does not exist: {parent}")
+    if not os.access(parent, os.W_OK | os.X_OK) or (path.exists() and not os.access(path, os.W_OK)):
+        raise OutputError(f"output path is not writable: {path}")
+    return path
+
+
+def write_text_atomic(path: str | os.PathLike, text: str) -> None:
+    path = check_writable(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def write_json_atomic(path: str | os.PathLike, data: object) -> None:
+    write_text_atomic(path, json.dumps(data, indent=2) + "\n")
