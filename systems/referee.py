@@ -38,6 +38,8 @@ class Referee(LeafSystem):
         # (last sample, events, robot touched table)
         self._state_index = self.DeclareAbstractState(AbstractValue.Make((None, (), False)))
         self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, self._update)
+        # The same update as a forced event, so that a sample can be taken on demand (tests).
+        self.DeclareForcedUnrestrictedUpdateEvent(self._update)
         self.DeclareAbstractOutputPort(
             "outcome", lambda: AbstractValue.Make(Outcome("missed", False, False, False)),
             self._calc_outcome)
