@@ -75,9 +75,10 @@ JOINT_LOWER: tuple[float, ...] = (-2.6, -2.0, -2.8, -0.9, -4.8, -1.6, -2.2)
 JOINT_UPPER: tuple[float, ...] = (2.6, 2.0, 2.8, 3.1, 1.3, 1.6, 2.2)
 # Joint speed bound of the lab's trajectory optimisers (facts.md section 2), rad/s.
 VELOCITY_LIMIT: tuple[float, ...] = (10.0,) * NUM_JOINTS
-# Torque limits of the lab's code (facts.md section 3), N m. Checked against the arm + racket
-# holding still: the gravity torques at AWAITING are at most about a third of each limit
-# (tests/systems/test_wam.py::test_gravity_torques_within_effort_limits).
+# Torque limits of the lab's code (facts.md section 3), N m. Adequate for holding the arm and
+# racket: the gravity torques at AWAITING are (0, 13.3, -4.0, 5.0, -0.38, -0.26, 0.0001) N m, at
+# most 17 % of a limit (tests/systems/test_wam.py checks < 50 %). The wrist limits (3, 4, 1 N m)
+# are what a fast stroke can saturate: the racket alone has ~0.02 kg m^2 about the wrist.
 EFFORT_LIMIT: tuple[float, ...] = (75.0, 125.0, 39.0, 30.0, 3.0, 4.0, 1.0)
 # The lab's joint acceleration bound (facts.md section 2), rad/s^2; for planners.
 ACCELERATION_LIMIT: tuple[float, ...] = (200.0,) * NUM_JOINTS

@@ -14,7 +14,8 @@ Inertials and geometry below are written in DH frame ``i`` and mapped through th
 centre, 0.30 m along ``z_7``, with the racket normal as its ``y`` axis.
 
 Collision geometry only on the forearm (link 4), the wrist (links 5, 6) and the racket blade,
-each with explicit Drake point-contact properties (facts.md section 4).
+each with explicit Drake point-contact properties (facts.md section 4); a
+``drake:collision_filter_group`` keeps the robot from colliding with itself.
 """
 
 from __future__ import annotations
@@ -49,8 +50,9 @@ def _nums(values, digits: int | None = None) -> str:
     return " ".join(_num(v, digits) for v in values)
 
 
-# Inertial values and shapes are printed to 12 significant digits (far finer than they are known);
-# joint and frame offsets are printed exactly so the model's kinematics is the DH chain to 1e-15.
+# Inertial values and shape sizes/positions are printed to 12 significant digits (far finer than
+# they are known); joint and frame offsets and all angles are printed exactly, so the model's
+# kinematics is the DH chain to 1e-15.
 _INERTIA_DIGITS = 12
 _SHAPE_DIGITS = 12
 
@@ -77,7 +79,8 @@ def _rpy(rotation: np.ndarray) -> tuple[float, float, float]:
 
 
 def _origin(pose: np.ndarray, digits: int | None = None) -> str:
-    xyz, rpy = _nums(pose[:3, 3], digits), _nums(_rpy(pose[:3, :3]), digits)
+    """``<origin>`` of a pose; angles always exact, positions to ``digits`` if given."""
+    xyz, rpy = _nums(pose[:3, 3], digits), _nums(_rpy(pose[:3, :3]))
     return f'<origin xyz="{xyz}" rpy="{rpy}"/>'
 
 
@@ -114,11 +117,12 @@ def _geometry(shape: Shape) -> str:
 
 
 def proximity(surface: ContactSurface, indent: str) -> str:
-    """Drake ``<drake:proximity_properties>`` for point contact with Hunt-Crossley dissipation."""
+    """Drake ``<drake:proximity_properties>`` for point contact with Hunt-Crossley dissipation
+    (URDF form: each property in a ``value`` attribute)."""
     tags = (("point_contact_stiffness", surface.stiffness),
             ("hunt_crossley_dissipation", surface.dissipation),
             ("mu_dynamic", surface.friction), ("mu_static", surface.friction))
-    body = "".join(f"{indent}  <drake:{tag}>{value:.6g}</drake:{tag}>\n" for tag, value in tags)
+    body = "".join(f'{indent}  <drake:{tag} value="{_num(value)}"/>\n' for tag, value in tags)
     return f"{indent}<drake:proximity_properties>\n{body}{indent}</drake:proximity_properties>\n"
 
 
@@ -241,6 +245,19 @@ def _racket() -> str:
             f"    {_origin(center)}\n  </joint>\n")
 
 
+SELF_COLLISION_GROUP = "wam_self"
+
+
+def _self_collision_filter() -> str:
+    """A Drake collision filter group over every link that ignores itself: the robot's own
+    geometries never collide with each other, whichever code loads the file."""
+    links = (wp.BASE_LINK, *wp.LINK_NAMES, wp.RACKET_LINK, wp.RACKET_CENTER_FRAME)
+    members = "".join(f'    <drake:member link="{name}"/>\n' for name in links)
+    return (f'  <drake:collision_filter_group name="{SELF_COLLISION_GROUP}">\n{members}'
+            f'    <drake:ignored_collision_filter_group name="{SELF_COLLISION_GROUP}"/>\n'
+            f"  </drake:collision_filter_group>\n")
+
+
 def wam_urdf() -> str:
     """The complete URDF text of the WAM with its racket (deterministic)."""
     parts = ['<?xml version="1.0"?>\n',
@@ -253,6 +270,7 @@ def wam_urdf() -> str:
         parts.append(_arm_joint(i))
     parts.append(_racket())
     parts.extend(_transmission(i) for i in range(1, wp.NUM_JOINTS + 1))
+    parts.append(_self_collision_filter())
     parts.append("</robot>\n")
     return "".join(parts)
 

@@ -1,0 +1,134 @@
+"""The Barrett WAM with its racket in a MultibodyPlant, and its inverse-dynamics controller.
+
+Frames (DESIGN.md world frame: z up, +y from the robot's end toward the launcher, +x the robot's
+forehand). The WAM hangs from the ceiling: its base plate (URDF link ``wam_base``, origin on the
+plate, z toward the shoulder) is welded at ``(MOUNT.mount_x, MOUNT.mount_y, MOUNT.mount_z)`` with
+orientation :data:`tt_drake.wam_params.BASE_ROTATION`, a half-turn about the horizontal axis
+(1, 1, 0)/sqrt(2) (equivalently Rz(pi/2) Rx(pi)). That turns joint 1's axis ``z_0`` to -z
+(vertical, hanging), puts the shoulder ``MOUNT.base_to_shoulder`` below the plate, and sends the
+robot's front ``x_0`` (where positive q2 and q4 carry the hand) to +y, toward the table, so the
+``y_0`` side, where the arm's forehand swing happens, is +x.
+
+The racket-centre frame ``racket_center`` is at the blade centre; its y axis is the racket
+normal, its z axis runs from the handle through the blade (tt_drake.wam_params docstring).
+"""
+
+from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+from pydrake.geometry import CollisionFilterDeclaration, GeometrySet, SceneGraph
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import ModelInstanceIndex
+from pydrake.systems.controllers import InverseDynamicsController
+from pydrake.systems.framework import Context, DiagramBuilder
+
+from tt_drake import wam_params as wp
+from tt_drake.constants import MOUNT
+
+MODEL_FILE = "wam7_racket.urdf"
+BASE_FRAME = wp.BASE_LINK  # "wam_base": the base plate
+RACKET_BODY = wp.RACKET_LINK  # "racket": body carrying the blade, frame = DH frame 7 (flange)
+RACKET_CENTER_FRAME = wp.RACKET_CENTER_FRAME  # "racket_center": blade centre, y = normal
+RACKET_BLADE_GEOMETRY = wp.RACKET_BLADE_GEOMETRY  # "racket_blade": the blade collision disc
+RACKET_CENTER_OFFSET = (0.0, 0.0, wp.RACKET.center_offset)  # blade centre in the racket body
+JOINT_NAMES = wp.JOINT_NAMES
+NUM_JOINTS = wp.NUM_JOINTS
+
+# InverseDynamicsController gains (per joint, acceleration units since the controller multiplies
+# by the mass matrix: vd_cmd = vd_d + kp (q_d - q) + kd (v_d - v) + ki int(q_d - q)).
+# kp = 900 1/s^2 gives a 30 rad/s (4.8 Hz) closed-loop bandwidth, well above the ~1 Hz content
+# of a stroke and under the 500 Hz servo rate of the lab; kd = 2 sqrt(kp) = 60 1/s is critical
+# damping. ki = 0: the control plant is the simulated arm itself, so there is no steady load for
+# an integrator to learn, and any ki adds a slow closed-loop pole near -ki/kp whose tail outlives
+# the transient (with ki = 20 a 0.05 rad offset still left 0.08 mm after 2 s instead of ~0) and
+# winds up whenever the effort limits clamp a fast stroke. Pass a small ki (ki < kp kd for
+# stability) if the control plant is ever made to differ from the simulated one.
+KP = (900.0,) * NUM_JOINTS
+KD = (60.0,) * NUM_JOINTS
+KI = (0.0,) * NUM_JOINTS
+
+
+def model_file() -> Path:
+    """Path of the packaged URDF (``models/wam7_racket.urdf``, package ``tt_drake.models``)."""
+    return Path(str(resources.files("tt_drake.models").joinpath(MODEL_FILE)))
+
+
+def base_pose_in_world() -> RigidTransform:
+    """X_WB: the base plate frame in the world (hanging from the ceiling mount)."""
+    return RigidTransform(RotationMatrix(np.array(wp.BASE_ROTATION)),
+                          [MOUNT.mount_x, MOUNT.mount_y, MOUNT.mount_z])
+
+
+def add_wam(plant: MultibodyPlant, *, weld_to_world: bool = True, urdf: str | Path | None = None,
+            scene_graph: SceneGraph | None = None) -> ModelInstanceIndex:
+    """Parse the WAM + racket into ``plant`` (not finalised) and return its model instance.
+
+    ``weld_to_world``: weld ``wam_base`` at :func:`base_pose_in_world`. ``urdf``: another model
+    file (default: the packaged one). The file's collision filter group already keeps the robot's
+    geometries from colliding with each other; if ``scene_graph`` (the one the plant is
+    registered with) is given, the same exclusion is also declared on it directly.
+    """
+    path = Path(urdf) if urdf is not None else model_file()
+    (instance,) = Parser(plant).AddModels(str(path))
+    if weld_to_world:
+        plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(BASE_FRAME, instance),
+                         base_pose_in_world())
+    if scene_graph is not None and plant.geometry_source_is_registered():
+        bodies = [plant.get_body(index) for index in plant.GetBodyIndices(instance)]
+        geometries = plant.CollectRegisteredGeometries(bodies)
+        scene_graph.collision_filter_manager().Apply(
+            CollisionFilterDeclaration().ExcludeWithin(geometries))
+    return instance
+
+
+def robot_geometries(plant: MultibodyPlant, instance: ModelInstanceIndex) -> GeometrySet:
+    """Every registered geometry of the robot (e.g. for contact bookkeeping)."""
+    bodies = [plant.get_body(index) for index in plant.GetBodyIndices(instance)]
+    return plant.CollectRegisteredGeometries(bodies)
+
+
+def make_control_plant() -> MultibodyPlant:
+    """A finalised, continuous plant with only the arm and its welded racket, fully actuated,
+    welded exactly like the simulation's; the model that InverseDynamicsController uses."""
+    plant = MultibodyPlant(time_step=0.0)
+    add_wam(plant)
+    plant.Finalize()
+    return plant
+
+
+def racket_pose(plant: MultibodyPlant, context: Context,
+                instance: ModelInstanceIndex) -> RigidTransform:
+    """X_WC: pose of the racket-centre frame in the world (y_C is the racket normal)."""
+    return plant.GetFrameByName(RACKET_CENTER_FRAME, instance).CalcPoseInWorld(context)
+
+
+def awaiting_state() -> np.ndarray:
+    """Arm state [q; v] at rest in the AWAITING posture."""
+    return np.concatenate([np.asarray(wp.AWAITING, dtype=float), np.zeros(NUM_JOINTS)])
+
+
+def add_wam_controller(builder: DiagramBuilder, plant: MultibodyPlant,
+                       instance: ModelInstanceIndex, kp=KP, ki=KI, kd=KD,
+                       name: str = "wam_controller") -> InverseDynamicsController:
+    """Add an InverseDynamicsController (own control plant, reference acceleration enabled).
+
+    Connected here: plant arm state -> ``estimated_state``; ``actuation`` -> the plant's actuation
+    input for ``instance``. Left for the caller: ``desired_state`` ([q_d; v_d], 14) and
+    ``desired_acceleration`` (q̈_d, 7); both must be connected or exported. The control plant is
+    reachable as ``controller.get_multibody_plant_for_control()``.
+    """
+    control_plant = make_control_plant()
+    controller = builder.AddSystem(InverseDynamicsController(
+        control_plant, np.asarray(kp, dtype=float), np.asarray(ki, dtype=float),
+        np.asarray(kd, dtype=float), True))
+    controller.set_name(name)
+    builder.Connect(plant.get_state_output_port(instance),
+                    controller.get_input_port_estimated_state())
+    builder.Connect(controller.GetOutputPort("actuation"),
+                    plant.get_actuation_input_port(instance))
+    return controller
