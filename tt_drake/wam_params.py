@@ -197,7 +197,10 @@ RACKET = Racket()
 # height, with the racket normal (-0.14, 0.99, 0.01), 8 deg from +y (facing the table); the blade
 # tip leans up and out to the forehand. Chosen by minimising sum(((q - mid) / half_range)^4) with
 # the racket centre at (0.30, -2.00, 1.10) and the normal within 8 deg of +y, then rounded: every
-# joint stays within 54 % of its half-range from mid-range, leaving room to swing.
+# joint stays within 54 % of its half-range from mid-range, leaving room to swing. The upper arm
+# hangs nearly straight down with the elbow 0.18 m to the backhand side (x = -0.18) and the
+# forearm reaching forward; asking for the elbow on the forehand side instead pushes J6 to 84 % of
+# its range.
 AWAITING: tuple[float, ...] = (-0.80, 0.57, 1.50, 1.65, -2.89, -0.79, -1.06)
 
 # Orientation of DH frame 0 (and of the base link) in the world when hanging from the ceiling:
