@@ -25,7 +25,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from tt_drake.dmp import HittingDMP, Trajectory
 
-__all__ = ["Demonstration", "ImitationResult", "forcing_reference", "fit_weights", "imitate"]
+__all__ = [
+    "Demonstration",
+    "ImitationResult",
+    "forcing_reference",
+    "fit_weights",
+    "imitate",
+    "quintic_demonstration",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -167,3 +174,38 @@ def imitate(dmp: HittingDMP, demo: Demonstration, *, method: str = "ls") -> Imit
         g_dot=qd[-1].copy(),
         tau=demo.tau,
     )
+
+
+def quintic_demonstration(
+    tau: float,
+    y0: ArrayLike,
+    g_f: ArrayLike,
+    g_dot: ArrayLike,
+    *,
+    rate: float = 500.0,
+    backswing: ArrayLike = 0.0,
+) -> Demonstration:
+    """A synthetic smooth hitting demonstration (for examples and tests).
+
+    Per DoF: the quintic polynomial from rest at ``y0`` to ``g_f`` with velocity ``g_dot`` and zero
+    acceleration at ``tau``, plus an optional backswing bump ``backswing * sin^3(pi t / tau)``
+    (which leaves both end states unchanged). Derivatives are exact.
+    """
+    y0, g_f, g_dot, b = (np.atleast_1d(np.asarray(a, dtype=float)) for a in
+                         (y0, g_f, g_dot, backswing))
+    y0, g_f, g_dot, b = np.broadcast_arrays(y0, g_f, g_dot, b)
+    t = np.linspace(0.0, tau, max(2, int(round(tau * rate))) + 1)
+    u = t / tau
+    # quintic with q(0)=y0, qd(0)=qdd(0)=0, q(1)=g_f, qd(1)=tau g_dot, qdd(1)=0 in u = t / tau
+    d, v = g_f - y0, tau * g_dot
+    c3, c4, c5 = 10 * d - 4 * v, -15 * d + 7 * v, 6 * d - 3 * v
+    up = np.stack([u**3, u**4, u**5], axis=-1)
+    upd = np.stack([3 * u**2, 4 * u**3, 5 * u**4], axis=-1) / tau
+    updd = np.stack([6 * u, 12 * u**2, 20 * u**3], axis=-1) / tau**2
+    coef = np.stack([c3, c4, c5])  # (3, D)
+    om = np.pi / tau
+    sn, cs = np.sin(om * t)[:, None], np.cos(om * t)[:, None]
+    q = y0 + up @ coef + b * sn**3
+    qd = upd @ coef + b * 3 * sn**2 * cs * om
+    qdd = updd @ coef + b * om**2 * (6 * sn * cs**2 - 3 * sn**3)
+    return Demonstration(t, q, qd, qdd)

@@ -1,0 +1,44 @@
+"""The documentation's example scripts run and write small PNGs; the benchmark reports numbers."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tt_drake.benchmarks import bench_momp_planning
+from tt_drake.imitation import quintic_demonstration
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "docs" / "examples"
+
+
+@pytest.mark.parametrize(
+    "name",
+    ["dmp_imitation", "momp_mixture", "power_toy", "responsibility_pruning", "crkr_two_branch"],
+)
+def test_example_writes_plot(name, tmp_path):
+    spec = importlib.util.spec_from_file_location(f"example_{name}", EXAMPLES / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    out = tmp_path / f"{name}.png"
+    module.main(str(out))
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert out.stat().st_size < 200_000
+
+
+def test_benchmark_reports_timings_without_asserting_them():
+    res = bench_momp_planning(n_primitives=20, n_dof=3, repeats=3)
+    assert res["samples"] == 251 and res["n_primitives"] == 20
+    assert 0 < res["min_ms"] <= res["median_ms"] and 1 <= res["mean_kept_primitives"] <= 20
+
+
+def test_quintic_demonstration_boundary_states():
+    d = quintic_demonstration(0.4, [0.0, 1.0], [1.0, 0.5], [2.0, -1.0], backswing=[0.3, 0.0])
+    np.testing.assert_allclose(d.q[0], [0, 1])
+    np.testing.assert_allclose(d.q[-1], [1, 0.5], atol=1e-12)
+    np.testing.assert_allclose(d.qd[0], 0, atol=1e-12)
+    np.testing.assert_allclose(d.qd[-1], [2, -1], atol=1e-12)
+    np.testing.assert_allclose(d.qdd[[0, -1]], 0, atol=1e-9)
+    np.testing.assert_allclose(np.gradient(d.q, d.t, axis=0)[1:-1], d.qd[1:-1], atol=1e-3)
