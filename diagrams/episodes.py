@@ -4,8 +4,9 @@ The diagram (DESIGN.md): BallLauncher, MultibodyPlant (WAM + racket, table, net,
 Aerodynamics, the player's trajectory source feeding Drake's InverseDynamicsController, and the
 Referee. It is built once; each episode restores a saved context
 (``SetTimeStateAndParametersFrom`` + ``Initialize``, facts.md section 4), sets the launcher's seed,
-puts the ball at the launch state and simulates until the predicted crossing of the hitting plane
-plus ``Scenario.after_crossing``.
+puts the ball at the launch state and simulates until the referee ends the episode (the ball
+reached the floor) or, at the latest, the predicted crossing of the hitting plane plus
+``Scenario.after_crossing``.
 
 Players are registered in :data:`PLAYERS`: a function that adds the player's systems to the
 builder and connects them to the controller's desired-state and desired-acceleration inputs.
@@ -151,9 +152,10 @@ class ServeDiagram:
         if self.ball_logger is not None:
             self.ball_logger.GetMyMutableContextFromRoot(self.context)  # log is per context
             self.ball_logger.FindMutableLog(self.context).Clear()
-        duration = float(serve.crossing.t + self.scenario.after_crossing)
+        max_duration = float(serve.crossing.t + self.scenario.after_crossing)
         self.simulator.Initialize()
-        self.simulator.AdvanceTo(start_time + duration)
+        self.simulator.AdvanceTo(start_time + max_duration)  # the referee may end it earlier
+        duration = self.context.get_time() - start_time
         outcome = self.referee.GetOutputPort("outcome").Eval(
             self.referee.GetMyContextFromRoot(self.context))
         path = None

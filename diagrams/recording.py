@@ -6,8 +6,6 @@ laid end to end on the recording's timeline; each ball path is drawn as a line a
 point after a hit is marked (green: legal return, red: fault).
 """
 
-import os
-
 import numpy as np
 from tt_drake.diagrams.episodes import EpisodeResult
 
@@ -17,8 +15,11 @@ PATH_COLOUR = (1.0, 0.55, 0.1, 0.8)
 
 
 def make_meshcat():
-    """A Meshcat server bound to localhost; remote package fetches fail fast instead of hanging."""
-    os.environ.setdefault("DRAKE_ALLOW_NETWORK", "meshcat")
+    """A Meshcat server bound to localhost (the recording is saved with ``StaticHtml``).
+
+    ``DRAKE_ALLOW_NETWORK`` is left alone: restricting it to ``meshcat`` makes every ``Parser``
+    fail at construction in pydrake 1.51 (its package map registers the remote ``drake_models``),
+    and our models reference no remote package."""
     from pydrake.geometry import Meshcat, MeshcatParams
 
     meshcat = Meshcat(MeshcatParams(host="localhost"))

@@ -34,7 +34,7 @@ class Aerodynamics(LeafSystem):
         self._mc = mass * self.config.magnus_cl
         self._f0 = ball_velocity_start + 3  # force entries follow the torque entries
         self._enabled = self.config.enabled
-        self.DeclareVectorInputPort("ball_state", 13)
+        self._ball_state = self.DeclareVectorInputPort("ball_state", 13)
         self.DeclareVectorOutputPort("generalized_force", BasicVector(num_velocities),
                                      self._calc_force)
 
@@ -43,7 +43,7 @@ class Aerodynamics(LeafSystem):
         out[:] = 0.0  # a fresh BasicVector holds NaN
         if not self._enabled:
             return
-        s = self.get_input_port(0).Eval(context)
+        s = self._ball_state.Eval(context)
         wx, wy, wz, vx, vy, vz = float(s[7]), float(s[8]), float(s[9]), float(s[10]), \
             float(s[11]), float(s[12])
         kd = self._mk * math.sqrt(vx * vx + vy * vy + vz * vz)

@@ -6,9 +6,14 @@ Inputs:
 - ``body_poses``: the plant's body poses, to find the racket centre (optional);
 - ``contact_results``: the plant's contact results, to see robot-table contact (optional).
 
-A periodic discrete update at ``rate`` Hz (default 250 Hz) samples them; its abstract state holds
-the last sample, the contact events so far and whether the robot touched the table. Output
+A periodic unrestricted update at ``rate`` Hz (default 250 Hz) samples them; its abstract state
+holds the last sample, the contact events so far and whether the robot touched the table. Output
 ``outcome``: the :class:`tt_drake.referee_rules.Outcome` of the episode so far.
+
+The referee ends the episode (``EventStatus.ReachedTermination``, which stops
+``Simulator.AdvanceTo``) once the ball has fallen below ``stop_below`` metres: by then every
+outcome is settled, and a ball sliding along the floor costs the integrator four times the steps
+of a ball in flight.
 """
 
 from __future__ import annotations
@@ -16,15 +21,32 @@ from __future__ import annotations
 from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import ContactResults
-from pydrake.systems.framework import LeafSystem
+from pydrake.systems.framework import EventStatus, LeafSystem
 
 from tt_drake.referee_rules import ContactDetector, Outcome, RefereeConfig, judge
+
+
+class _RefereeState:
+    """The referee's abstract state: the last sample, the contact events so far and whether the
+    robot touched the table. Immutable (every update makes a new one), so Drake's copies of it,
+    made at every update and context clone, can share it instead of deep-copying the events."""
+
+    __slots__ = ("sample", "events", "touched")
+
+    def __init__(self, sample=None, events=(), touched=False):
+        self.sample, self.events, self.touched = sample, events, touched
+
+    def __copy__(self):
+        return self
+
+    def __deepcopy__(self, memo):
+        return self
 
 
 class Referee(LeafSystem):
     def __init__(self, config: RefereeConfig | None = None, rate: float = 250.0,
                  racket_body_index=None, racket_offset=(0.0, 0.0, 0.0),
-                 robot_body_indices=(), table_geometry_ids=()):
+                 robot_body_indices=(), table_geometry_ids=(), stop_below: float = 0.1):
         super().__init__()
         self.config = config or RefereeConfig()
         self.detector = ContactDetector(self.config)
@@ -32,11 +54,11 @@ class Referee(LeafSystem):
         self._racket_offset = list(racket_offset)
         self._robot_bodies = set(robot_body_indices)
         self._table_geometries = set(table_geometry_ids)
+        self._stop_below = stop_below
         self.DeclareVectorInputPort("ball_state", 13)
         self.DeclareAbstractInputPort("body_poses", AbstractValue.Make([RigidTransform()]))
         self.DeclareAbstractInputPort("contact_results", AbstractValue.Make(ContactResults()))
-        # (last sample, events, robot touched table)
-        self._state_index = self.DeclareAbstractState(AbstractValue.Make((None, (), False)))
+        self._state_index = self.DeclareAbstractState(AbstractValue.Make(_RefereeState()))
         self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, self._update)
         # The same update as a forced event, so that a sample can be taken on demand (tests).
         self.DeclareForcedUnrestrictedUpdateEvent(self._update)
@@ -64,20 +86,25 @@ class Referee(LeafSystem):
         return False
 
     def _update(self, context, state):
-        prev, events, touched = context.get_abstract_state(self._state_index).get_value()
+        old = context.get_abstract_state(self._state_index).get_value()
         s = self.get_input_port(0).Eval(context)
         cur = ContactDetector.sample(context.get_time(), s[4:7], s[10:13], s[7:10],
                                      self._racket_center(context))
-        if prev is not None:
-            event = self.detector.detect(prev, cur)
+        events = old.events
+        if old.sample is not None:
+            event = self.detector.detect(old.sample, cur)
             if event is not None:
                 events = (*events, event)
-        touched = touched or self._robot_touches_table(context)
-        state.get_mutable_abstract_state(self._state_index).set_value((cur, events, touched))
+        touched = old.touched or self._robot_touches_table(context)
+        state.get_mutable_abstract_state(self._state_index).set_value(
+            _RefereeState(cur, events, touched))
+        if cur[1][2] < self._stop_below:
+            return EventStatus.ReachedTermination(self, "the ball reached the floor")
+        return EventStatus.Succeeded()
 
     def events(self, context):
-        return list(context.get_abstract_state(self._state_index).get_value()[1])
+        return list(context.get_abstract_state(self._state_index).get_value().events)
 
     def _calc_outcome(self, context, output):
-        _, events, touched = context.get_abstract_state(self._state_index).get_value()
-        output.set_value(judge(list(events), touched, self.config))
+        state = context.get_abstract_state(self._state_index).get_value()
+        output.set_value(judge(list(state.events), state.touched, self.config))
