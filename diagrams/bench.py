@@ -14,11 +14,11 @@ import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
+
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import Scenario
-from tt_drake.systems.world import add_world, make_simulator, set_ball_state
-
 from tt_drake.serves import ServeSampler
+from tt_drake.systems.world import add_world, make_simulator, set_ball_state
 
 
 def _swing(duration: float) -> PiecewisePolynomial:
@@ -36,7 +36,6 @@ def _swing(duration: float) -> PiecewisePolynomial:
 class ReferenceDiagram:
     def __init__(self, scenario: Scenario, duration: float):
         from tt_drake.systems.wam import add_wam_controller
-
         from tt_drake.wam_params import AWAITING
 
         builder = DiagramBuilder()

@@ -93,7 +93,6 @@ def _serve(args) -> None:
 
 def _bench(args) -> None:
     from tt_drake.diagrams.bench import format_bench, run_bench
-
     from tt_drake.outputs import check_writable, write_json_atomic
 
     _check_player(args.player)
@@ -119,10 +118,9 @@ COMMANDS = {"serve": _serve, "bench": _bench, "models": _models}
 def _user_errors() -> tuple[type[BaseException], ...]:
     from tt_drake.diagrams.episodes import PlayerError
     from tt_drake.diagrams.scenario import ScenarioError
-    from tt_drake.systems.world import ModelFileError
-
     from tt_drake.outputs import OutputError
     from tt_drake.serves import ServeError
+    from tt_drake.systems.world import ModelFileError
 
     return (CliError, ScenarioError, ServeError, PlayerError, ModelFileError, OutputError)
 

@@ -19,13 +19,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, VectorLogSink
+
 from tt_drake.diagrams.scenario import Scenario
+from tt_drake.referee_rules import Outcome
 from tt_drake.systems.aerodynamics import Aerodynamics
 from tt_drake.systems.ball_launcher import BallLauncher
 from tt_drake.systems.referee import Referee
 from tt_drake.systems.world import World, add_world, make_simulator, set_ball_state
-
-from tt_drake.referee_rules import Outcome
 
 
 class PlayerError(ValueError):

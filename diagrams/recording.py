@@ -7,6 +7,7 @@ point after a hit is marked (green: legal return, red: fault).
 """
 
 import numpy as np
+
 from tt_drake.diagrams.episodes import EpisodeResult
 
 RETURN_COLOUR = (0.1, 0.8, 0.2, 1.0)

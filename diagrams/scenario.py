@@ -12,11 +12,11 @@ from importlib import resources
 from pathlib import Path
 
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
+
+from tt_drake.referee_rules import RefereeConfig
 from tt_drake.systems.aerodynamics import AerodynamicsConfig
 from tt_drake.systems.ball_launcher import LauncherConfig
 from tt_drake.systems.world import WorldConfig
-
-from tt_drake.referee_rules import RefereeConfig
 
 
 @dataclass

@@ -3,9 +3,9 @@
 import sys
 
 from tqdm import tqdm
+
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed, summarize
 from tt_drake.diagrams.scenario import Scenario
-
 from tt_drake.outputs import check_writable, write_json_atomic, write_text_atomic
 
 
