@@ -18,7 +18,7 @@ def test_same_seed_gives_the_same_serve_and_different_seeds_differ():
 
 def test_default_serves_bounce_once_on_the_robot_half_and_cover_the_region():
     sampler = ServeSampler("default")
-    serves = [sampler.sample(seed) for seed in range(300)]
+    serves = [sampler.sample(seed) for seed in range(1000)]
     crossings = np.array([s.crossing.position for s in serves])
     for s in serves:
         assert len(s.crossing.bounces) == 1
