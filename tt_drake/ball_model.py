@@ -257,7 +257,8 @@ class BallModel:
         return self._advance(s, stop, max_time)
 
     def predict_time(self, state, duration: float) -> PlaneCrossing:
-        """State after ``duration`` seconds (bounces on the table included)."""
+        """State after ``duration`` seconds (bounces on the table included). Raises ValueError if
+        the ball reaches the floor before then."""
 
         def stop(t, _q, _v):
             return duration - t
@@ -267,7 +268,8 @@ class BallModel:
             w = s[6:9] if s.size == 9 else np.zeros(3)
             return PlaneCrossing(0.0, s[0:3].copy(), s[3:6].copy(), np.array(w), ())
         hit = self._advance(state, stop, duration + 1.0)
-        assert hit is not None
+        if hit is None:
+            raise ValueError(f"the ball reaches the floor before {duration} s")
         return hit
 
     def trajectory(self, state, duration: float, rate: float = 200.0) -> tuple[np.ndarray, ...]:
@@ -283,3 +285,51 @@ class BallModel:
         if hit is None:
             return None
         return float(hit.position[2] - self.params.radius - (TABLE.surface_z + NET.height))
+
+
+# -- addition (hitting-point predictor): the bounce of a compliant table contact -------------------
+
+class CompliantBounceBallModel(BallModel):
+    """:class:`BallModel` with the tangential bounce corrected for the contact's compliance.
+
+    In the Drake world the ball sinks into the table by up to
+    ``delta = v_n sqrt(m / k)`` (k: the ball-table series stiffness) during the ~0.5 ms contact, so
+    friction acts at a lever arm shorter than R. Rigid-contact friction with lever ``r``:
+    slip ``u = v_t - r (omega x n)`` changes by ``(1 + m r^2 / I) J_t / m`` per impulse, so
+
+        r = R (1 - lambda v_n sqrt(m / k) / R),
+        |J_t| = min(mu J_n, m |u| / (1 + 1.5 (r / R)^2))      (I = 2/3 m R^2)
+
+    and the spin changes by ``r x J_t / I``. The normal part is unchanged. ``lambda`` is the
+    effective fraction of the peak penetration over the rolling phase, fitted against the Drake
+    world: ``lambda = 0.2`` brings the crossing of the virtual hitting plane from up to 14 mm /
+    4.7 ms off to within 2.4 mm / 0.4 ms over 100 ``default`` serves (the rigid model's rolling
+    limit 0.6 v + 0.4 omega R loses too little tangential speed on fast impacts)."""
+
+    def __init__(self, params: BallModelParams | None = None, dt: float = 1e-3,
+                 lever_fraction: float = 0.2):
+        super().__init__(params, dt)
+        from tt_drake.constants import CONTACT
+
+        k_series = 1.0 / (1.0 / CONTACT.ball_stiffness + 1.0 / CONTACT.table_stiffness)
+        self._sink_per_speed = math.sqrt(self.params.mass / k_series)  # delta / v_n (s)
+        self.lever_fraction = lever_fraction
+
+    def bounce(self, vel: tuple, w: tuple) -> tuple[tuple, tuple]:
+        p = self.params
+        vx, vy, vz = vel
+        wx, wy, wz = w
+        vn = -vz
+        lever = 1.0 - self.lever_fraction * vn * self._sink_per_speed / p.radius
+        r = p.radius * lever
+        e = self.table_restitution(vn)
+        jn = (1.0 + e) * vn
+        ux, uy = vx - r * wy, vy + r * wx
+        slip = math.hypot(ux, uy)
+        if slip > 1e-12:
+            jt = min(p.table_friction * jn, slip / (1.0 + 1.5 * lever * lever))
+            jx, jy = -jt * ux / slip, -jt * uy / slip
+        else:
+            jx = jy = 0.0
+        inv_i = 1.0 / (2.0 / 3.0 * p.radius * p.radius)
+        return (vx + jx, vy + jy, e * vn), (wx + inv_i * r * jy, wy - inv_i * r * jx, wz)

@@ -1,0 +1,180 @@
+"""The analytical player's stroke: where to send the ball, and the racket state that sends it there.
+
+Two steps, as in the teacher of the paper (its ref. [24]; equations.md, "racket law"):
+
+1. :func:`aim_return`: the outgoing ball velocity v_out that carries the ball from the hitting point
+   to the landing target. It is solved with the drag model of :class:`BallModel` (a drag-free
+   parabola lands the ball ~0.3 m short at these speeds), by Newton's method on
+   p(T; v_out) = target for a flight time T chosen among candidates to keep the ball above the net
+   with a margin while asking the least racket speed.
+2. :func:`racket_for_return`: the racket normal n and velocity v_R. Along the normal, the impact
+   law v_out,n = v_R,n + e (v_R,n - v_in,n) gives v_R,n = (n.v_out + e n.v_in) / (1 + e), and
+   n = (v_out - v_in) / |v_out - v_in|. Tangentially the racket moves with the ball
+   (v_R,t = v_in,t): the contact point does not slip, so the rubber's friction (mu = 0.9 in our
+   world) does not act and the ball's tangential velocity passes unchanged, as the law assumes.
+   equations.md's form sets v_R,t = 0 instead, which with a grippy racket would cut the ball's
+   tangential velocity towards the rolling limit (0.6 of it) and spin it.
+
+The restitution e is the one the arm-held racket shows in the Drake world (tests/systems/
+test_racket.py): a Hunt-Crossley contact with an effective dissipation
+:data:`HELD_RACKET_DISSIPATION`, so e depends on the normal impact speed (0.86 at 4 m/s, 0.78 at
+8 m/s, 0.71 at 12 m/s).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from tt_drake.ball_model import BallModel, hunt_crossley_restitution
+from tt_drake.constants import BALL, NET, TABLE, TARGET
+
+#: Effective Hunt-Crossley dissipation (s/m) of the racket as held by the controlled arm: fits
+#: the restitution measured in Drake (0.862, 0.781, 0.712 at 4, 8, 12 m/s) within 0.013.
+HELD_RACKET_DISSIPATION = 0.0526
+
+#: Candidate outgoing flight times (s) searched by :func:`aim_return`.
+FLIGHT_TIMES = (0.5, 0.6, 0.7, 0.8, 0.9)
+
+
+def racket_restitution(impact_speed: float) -> float:
+    """Normal restitution of the arm-held racket at a normal relative impact speed (m/s)."""
+    return hunt_crossley_restitution(HELD_RACKET_DISSIPATION, impact_speed)
+
+
+@dataclass(frozen=True)
+class RacketState:
+    """The racket state at impact: unit normal (facing the incoming ball) and velocity."""
+
+    normal: np.ndarray
+    velocity: np.ndarray
+    restitution: float
+
+
+def racket_for_return(v_in, v_out) -> RacketState:
+    """Racket normal and velocity that turn the ball's v_in into v_out (module docstring).
+
+    e depends on the relative normal speed, which depends on v_R,n: a fixed-point iteration
+    (it converges in a few steps, e changing slowly with speed).
+    """
+    v_in = np.asarray(v_in, dtype=float)
+    v_out = np.asarray(v_out, dtype=float)
+    dv = v_out - v_in
+    norm = float(np.linalg.norm(dv))
+    if norm < 1e-9:
+        raise ValueError("v_out equals v_in: no impact needed")
+    n = dv / norm
+    vin_n, vout_n = float(n @ v_in), float(n @ v_out)
+    e = racket_restitution(vout_n - vin_n)
+    for _ in range(20):
+        vr_n = (vout_n + e * vin_n) / (1.0 + e)
+        e_new = racket_restitution(vr_n - vin_n)
+        if abs(e_new - e) < 1e-12:
+            break
+        e = e_new
+    vr_n = (vout_n + e * vin_n) / (1.0 + e)
+    v_racket = (v_in - vin_n * n) + vr_n * n
+    return RacketState(n, v_racket, e)
+
+
+def ball_after_racket(v_in, racket: RacketState) -> np.ndarray:
+    """The impact law forward: the ball's velocity after the racket (no slip tangentially when the
+    racket's tangential velocity matches the ball's; otherwise the tangential part is kept)."""
+    v_in = np.asarray(v_in, dtype=float)
+    n = racket.normal
+    rel_n = float(n @ (racket.velocity - v_in))
+    return v_in + (1.0 + racket.restitution) * rel_n * n
+
+
+@dataclass(frozen=True)
+class ReturnAim:
+    """An outgoing ball velocity and what it achieves."""
+
+    v_out: np.ndarray
+    flight_time: float
+    net_clearance: float  # lowest point of the ball above the net top when crossing (m)
+    landing: np.ndarray  # where the ball centre reaches table-contact height (x, y)
+
+
+def _fly(model: BallModel, p, v, duration: float, h: float = 0.02) -> tuple:
+    """Ball position after ``duration`` seconds of free flight (no table), RK4 with step ~h."""
+    steps = max(1, int(math.ceil(duration / h)))
+    dt = duration / steps
+    pos, vel = tuple(p), tuple(v)
+    w = (0.0, 0.0, 0.0)
+    for _ in range(steps):
+        pos, vel = model.flight_step(pos, vel, w, dt)
+    return pos, vel
+
+
+def solve_outgoing_velocity(p_hit, target, flight_time: float, model: BallModel | None = None,
+                            tol: float = 1e-6) -> np.ndarray:
+    """v_out with p(T; v_out) = target under gravity and drag.
+
+    Broyden's method from the drag-free solution v = (target - p - g T^2 / 2) / T and its
+    Jacobian dp/dv = T I: drag is a smooth perturbation, so one flight per iteration and
+    5-8 iterations reach ``tol`` (m). Raises ValueError if it does not converge.
+    """
+    model = model or BallModel()
+    p = np.asarray(p_hit, dtype=float)
+    goal = np.asarray(target, dtype=float)
+    t = float(flight_time)
+    g = np.array([0.0, 0.0, -model.params.gravity])
+    v = (goal - p - 0.5 * g * t * t) / t
+    inv_jac = np.eye(3) / t
+    residual = np.array(_fly(model, p, v, t)[0]) - goal
+    for _ in range(30):
+        if np.linalg.norm(residual) < tol:
+            return v
+        step = -inv_jac @ residual
+        v = v + step
+        new_residual = np.array(_fly(model, p, v, t)[0]) - goal
+        dr = new_residual - residual
+        denom = float(step @ inv_jac @ dr)
+        if abs(denom) > 1e-15:  # Broyden's "good" update of the inverse Jacobian
+            inv_jac = inv_jac + np.outer(step - inv_jac @ dr, step @ inv_jac) / denom
+        residual = new_residual
+    if np.linalg.norm(residual) < 1e3 * tol:
+        return v
+    raise ValueError(f"no outgoing velocity reaches {goal} in {t} s from {p}")
+
+
+def net_clearance(model: BallModel, p, v) -> float:
+    """Height of the ball's bottom above the net top when its centre crosses y = 0 (free flight;
+    -inf if it falls to the table height first)."""
+    pos, vel = tuple(p), tuple(v)
+    w = (0.0, 0.0, 0.0)
+    contact_z = TABLE.surface_z + BALL.radius
+    for _ in range(200):
+        new_p, new_v = model.flight_step(pos, vel, w, 0.01)
+        if new_p[1] >= 0.0 > pos[1]:
+            s = -pos[1] / (new_p[1] - pos[1])
+            z = pos[2] + s * (new_p[2] - pos[2])
+            return z - BALL.radius - (TABLE.surface_z + NET.height)
+        if new_p[2] < contact_z:
+            return -math.inf
+        pos, vel = new_p, new_v
+    return -math.inf
+
+
+def aim_return(p_hit, v_in, target=(TARGET.x, TARGET.y), model: BallModel | None = None,
+               flight_times=FLIGHT_TIMES, min_clearance: float = 0.05) -> ReturnAim:
+    """The outgoing velocity that lands the ball at ``target`` (x, y on the table surface).
+
+    Among the candidate flight times it keeps those whose path clears the net by
+    ``min_clearance`` and returns the one that needs the smallest racket speed; if none clears
+    the net, the one with the largest clearance.
+    """
+    model = model or BallModel()
+    goal = np.array([target[0], target[1], TABLE.surface_z + BALL.radius])
+    best, best_key = None, None
+    for t in flight_times:
+        v_out = solve_outgoing_velocity(p_hit, goal, t, model)
+        clearance = net_clearance(model, p_hit, v_out)
+        speed = float(np.linalg.norm(racket_for_return(v_in, v_out).velocity))
+        key = (0, speed) if clearance >= min_clearance else (1, -clearance)
+        if best_key is None or key < best_key:
+            best, best_key = ReturnAim(v_out, float(t), clearance, goal[:2].copy()), key
+    return best
