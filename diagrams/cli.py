@@ -58,6 +58,18 @@ def build_parser() -> argparse.ArgumentParser:
     _add_scenario_options(bench)
 
     sub.add_parser("models", help="rewrite the generated model files in models/")
+
+    train = sub.add_parser("train-predictor", help="train the GPR hitting-point predictor")
+    train.add_argument("--serves", type=_positive_int, default=1000)
+    train.add_argument("--seed", type=int, default=0)
+    train.add_argument("--out", required=True, help="predictor file to write (.npz)")
+    train.add_argument("--quiet", action="store_true", help="no progress bar")
+    evalp = sub.add_parser("eval-predictor", help="GPR vs physical model on held-out serves")
+    evalp.add_argument("--model", required=True, help="predictor file from train-predictor")
+    evalp.add_argument("--serves", type=_positive_int, default=3500)
+    evalp.add_argument("--seed", type=int, default=1)
+    evalp.add_argument("--json", default=None, help="write the metrics as JSON")
+    evalp.add_argument("--quiet", action="store_true", help="no progress bar")
     return parser
 
 
@@ -112,17 +124,37 @@ def _models(_args) -> None:
     write_models()
 
 
-COMMANDS = {"serve": _serve, "bench": _bench, "models": _models}
+def _train_predictor(args) -> None:
+    from tt_drake.diagrams.predictor import format_train, train_predictor
+
+    print(format_train(train_predictor(args.serves, args.seed, args.out,
+                                       progress=not args.quiet)))
+
+
+def _eval_predictor(args) -> None:
+    from tt_drake.diagrams.predictor import eval_predictor, format_eval
+
+    print(format_eval(eval_predictor(args.model, args.serves, args.seed, args.json,
+                                     progress=not args.quiet)))
+    if args.json:
+        print(f"wrote {args.json}")
+
+
+COMMANDS = {"serve": _serve, "bench": _bench, "models": _models,
+            "train-predictor": _train_predictor, "eval-predictor": _eval_predictor}
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
     from tt_drake.diagrams.episodes import PlayerError
+    from tt_drake.diagrams.predictor import PredictorError
     from tt_drake.diagrams.scenario import ScenarioError
+    from tt_drake.hitting_point import PredictorFileError
     from tt_drake.outputs import OutputError
     from tt_drake.serves import ServeError
     from tt_drake.systems.world import ModelFileError
 
-    return (CliError, ScenarioError, ServeError, PlayerError, ModelFileError, OutputError)
+    return (CliError, ScenarioError, ServeError, PlayerError, ModelFileError, OutputError,
+            PredictorError, PredictorFileError)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,0 +1,505 @@
+"""``tt-drake train-predictor`` / ``eval-predictor``: labelled serves, the GPR and its evaluation.
+
+One sample per serve (seed ``episode_seed(base_seed, i)``, ``default`` distribution):
+
+1. Drake: the serve flies in a ball-only world (table, net, floor, ball, aerodynamics); the ball
+   state is logged ten times per camera frame (600 Hz, so every 10th sample is a camera frame).
+2. Label: the true state where the ball's centre crosses the virtual hitting plane, by Hermite
+   interpolation of the log (:func:`tt_drake.hitting_point.plane_crossing_from_samples`).
+3. Features, offline in numpy with the same code the Drake systems run: camera draws
+   (:class:`~tt_drake.camera_model.CameraModel`, seeded per serve) on the true frame positions,
+   the EKF (:func:`~tt_drake.estimation.run_filter`), its states at the four frames after the
+   plane y = 0 (:func:`~tt_drake.hitting_point.observation_frames`).
+
+The Drake part is the slow one (~0.1-0.2 s a serve); its results are cached in chunks of
+``CHUNK`` serves in ``<output>.cache/`` so an interrupted run resumes where it stopped. Workers are
+forked processes (two by default), each building its diagram once.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from tt_drake.ball_model import BallModel, CompliantBounceBallModel
+from tt_drake.camera_model import CameraConfig, CameraModel
+from tt_drake.constants import PLANES
+from tt_drake.estimation import EstimatorConfig, nees, run_filter
+from tt_drake.hitting_point import (
+    OUTPUT_NAMES,
+    HittingPointGPR,
+    PhysicalPredictor,
+    make_features,
+    make_label,
+    observation_frames,
+    plane_crossing_from_samples,
+    regression_metrics,
+)
+
+FRAME_RATE = 60.0
+SUBSAMPLES = 10  # log samples per camera frame
+MAX_FRAMES = 120  # 2 s of frames per serve
+CHUNK = 50
+SIM_VERSION = 2
+AFTER_CROSSING = 0.05  # simulate this long past the model's predicted crossing (s)
+
+
+class PredictorError(ValueError):
+    """A user error of the predictor commands (bad option values, unusable data)."""
+
+
+# -- Drake: one serve in a ball-only world ---------------------------------------------------------
+
+class BallOnlySimulation:
+    """Table, net, floor, ball and aerodynamics, logged at ``FRAME_RATE * SUBSAMPLES``."""
+
+    def __init__(self):
+        from pydrake.systems.framework import DiagramBuilder
+        from pydrake.systems.primitives import VectorLogSink
+
+        from tt_drake.systems.aerodynamics import Aerodynamics
+        from tt_drake.systems.world import WorldConfig, add_world, make_simulator
+
+        builder = DiagramBuilder()
+        self.config = WorldConfig(with_robot=False)
+        self.world = add_world(builder, self.config)
+        plant = self.world.plant
+        aero = builder.AddSystem(Aerodynamics(plant.num_velocities(),
+                                              self.world.ball_body.floating_velocities_start_in_v()))
+        builder.Connect(plant.get_state_output_port(self.world.ball), aero.get_input_port(0))
+        builder.Connect(aero.get_output_port(0), plant.get_applied_generalized_force_input_port())
+        self.logger = builder.AddSystem(VectorLogSink(13, 1.0 / (FRAME_RATE * SUBSAMPLES)))
+        builder.Connect(plant.get_state_output_port(self.world.ball), self.logger.get_input_port())
+        self.diagram = builder.Build()
+        self.simulator = make_simulator(self.diagram, self.config)
+        self.context = self.simulator.get_mutable_context()
+        self._initial = self.context.Clone()
+
+    def run(self, launch_state, duration: float):
+        """(t, p, v) samples of the ball from ``launch_state`` (p, v, omega) for ``duration`` s."""
+        from tt_drake.systems.world import set_ball_state
+
+        self.context.SetTimeStateAndParametersFrom(self._initial)
+        plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
+        set_ball_state(self.world, plant_context, np.asarray(launch_state, dtype=float))
+        self.logger.FindMutableLog(self.context).Clear()
+        self.simulator.Initialize()
+        self.simulator.AdvanceTo(duration)
+        log = self.logger.FindLog(self.context)
+        data = log.data()
+        return log.sample_times().copy(), data[4:7].T.copy(), data[10:13].T.copy()
+
+
+@dataclass
+class SimSample:
+    """What Drake tells about one serve (fixed-size arrays, NaN-padded)."""
+
+    seed: int
+    launch: np.ndarray  # (9,)
+    frames_p: np.ndarray  # (MAX_FRAMES, 3) true positions at t_k = k / FRAME_RATE
+    frames_v: np.ndarray  # (MAX_FRAMES, 3)
+    crossing: np.ndarray  # (7,) true p, v at the hitting plane and its time (NaN if none)
+    model_crossing: np.ndarray  # (7,) CompliantBounceBallModel's prediction from the launch
+    rigid_crossing: np.ndarray  # (7,) the rigid-bounce BallModel's prediction
+
+
+def _crossing(model: BallModel, state) -> np.ndarray:
+    c = model.predict_plane(state, PLANES.hitting_y)
+    return np.r_[c.position, c.velocity, c.t] if c is not None else np.full(7, np.nan)
+
+
+def simulate_serve(sim: BallOnlySimulation, sampler, models, seed: int) -> SimSample:
+    serve = sampler.sample(seed)
+    model_crossing = _crossing(models[0], serve.launch_state)
+    rigid_crossing = _crossing(models[1], serve.launch_state)
+    duration = float(serve.crossing.t) + AFTER_CROSSING
+    t, p, v = sim.run(serve.launch_state, duration)
+    c = plane_crossing_from_samples(t, p, v, PLANES.hitting_y)
+    crossing = np.r_[c[1], c[2], c[0]] if c is not None else np.full(7, np.nan)
+    frames_p = np.full((MAX_FRAMES, 3), np.nan)
+    frames_v = np.full((MAX_FRAMES, 3), np.nan)
+    idx = np.arange(0, len(t), SUBSAMPLES)[:MAX_FRAMES]
+    # The logger samples at multiples of 1/600 s; every SUBSAMPLES-th one is a camera frame.
+    assert np.allclose(t[idx], np.arange(len(idx)) / FRAME_RATE, atol=1e-9)
+    frames_p[: len(idx)] = p[idx]
+    frames_v[: len(idx)] = v[idx]
+    return SimSample(seed, serve.launch_state.copy(), frames_p, frames_v, crossing, model_crossing,
+                     rigid_crossing)
+
+
+# -- parallel generation with a chunk cache ------------------------------------------------------
+
+_WORKER: dict = {}
+
+
+def _worker_chunk(args) -> dict:
+    seeds = args
+    if "sim" not in _WORKER:
+        from tt_drake.serves import ServeSampler
+
+        _WORKER["sim"] = BallOnlySimulation()
+        _WORKER["sampler"] = ServeSampler("default")
+        _WORKER["model"] = (CompliantBounceBallModel(), BallModel())
+    samples = [simulate_serve(_WORKER["sim"], _WORKER["sampler"], _WORKER["model"], s)
+               for s in seeds]
+    return _stack(samples)
+
+
+def _stack(samples: list[SimSample]) -> dict:
+    return {
+        "seed": np.array([s.seed for s in samples], dtype=np.int64),
+        "launch": np.array([s.launch for s in samples]).reshape(-1, 9),
+        "frames_p": np.array([s.frames_p for s in samples]).reshape(-1, MAX_FRAMES, 3),
+        "frames_v": np.array([s.frames_v for s in samples]).reshape(-1, MAX_FRAMES, 3),
+        "crossing": np.array([s.crossing for s in samples]).reshape(-1, 7),
+        "model_crossing": np.array([s.model_crossing for s in samples]).reshape(-1, 7),
+        "rigid_crossing": np.array([s.rigid_crossing for s in samples]).reshape(-1, 7),
+    }
+
+
+def _chunk_path(cache_dir: Path, base_seed: int, index: int) -> Path:
+    key = hashlib.sha256(json.dumps([SIM_VERSION, FRAME_RATE, SUBSAMPLES, MAX_FRAMES,
+                                     AFTER_CROSSING, "default"]).encode()).hexdigest()[:10]
+    return cache_dir / f"serves_s{base_seed}_c{index:05d}_{key}.npz"
+
+
+def generate_samples(n: int, base_seed: int, cache_dir: str | os.PathLike | None,
+                     workers: int = 2, progress: bool = True, desc: str = "simulating") -> dict:
+    """Simulate serves 0..n-1 of ``base_seed`` (seeds ``episode_seed(base_seed, i)``), reusing
+    cached chunks; returns the stacked arrays of :class:`SimSample`."""
+    from tqdm import tqdm
+
+    from tt_drake.diagrams.episodes import episode_seed
+
+    n_chunks = math.ceil(n / CHUNK)
+    chunks: dict[int, dict] = {}
+    todo = []
+    cache = Path(cache_dir) if cache_dir is not None else None
+    if cache is not None:
+        cache.mkdir(parents=True, exist_ok=True)
+    for c in range(n_chunks):
+        seeds = [episode_seed(base_seed, i) for i in range(c * CHUNK, min(n, (c + 1) * CHUNK))]
+        path = _chunk_path(cache, base_seed, c) if cache is not None else None
+        if path is not None and path.is_file():
+            try:
+                with np.load(path, allow_pickle=False) as z:
+                    data = {k: z[k] for k in z.files}
+                if list(data["seed"][: len(seeds)]) == seeds and len(data["seed"]) >= len(seeds):
+                    chunks[c] = {k: a[: len(seeds)] for k, a in data.items()}
+                    continue
+            except (OSError, ValueError, KeyError):
+                pass
+        todo.append((c, seeds, path))
+    bar = tqdm(total=n, desc=desc, unit="serve", file=sys.stderr, disable=not progress,
+               initial=sum(len(ch["seed"]) for ch in chunks.values()))
+
+    def store(c, path, data):
+        chunks[c] = data
+        if path is not None:
+            tmp = path.with_suffix(".tmp.npz")
+            np.savez(tmp, **data)
+            os.replace(tmp, path)
+        bar.update(len(data["seed"]))
+
+    try:
+        if workers <= 1 or len(todo) <= 1:
+            for c, seeds, path in todo:
+                store(c, path, _worker_chunk(seeds))
+        else:
+            import multiprocessing as mp
+
+            ctx = mp.get_context("fork")
+            with ctx.Pool(workers) as pool:
+                results = pool.imap(_worker_chunk, [seeds for _, seeds, _ in todo])
+                for (c, _, path), data in zip(todo, results, strict=True):
+                    store(c, path, data)
+    finally:
+        bar.close()
+    parts = [chunks[c] for c in range(n_chunks)]
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+
+# -- camera + estimator offline ------------------------------------------------------------------
+
+def camera_seed(serve_seed: int) -> int:
+    """The camera's seed of a serve (derived from the serve's seed: one seed per episode)."""
+    return int(np.random.SeedSequence([int(serve_seed), 7]).generate_state(1)[0])
+
+
+@dataclass
+class PipelineResult:
+    ok: bool
+    reason: str = ""
+    features: np.ndarray | None = None
+    label: np.ndarray | None = None
+    state4: np.ndarray | None = None  # estimator state at the fourth observation
+    run: object = None
+
+
+def run_pipeline(frames_p, crossing, seed: int, camera: CameraConfig, estimator: EstimatorConfig,
+                 full: bool = False) -> PipelineResult:
+    """Camera and EKF on one serve's true frames; the features, the label and the fourth
+    observation's state. ``full`` runs the filter over all frames (for estimator statistics)
+    instead of stopping at the fourth observation."""
+    if not np.all(np.isfinite(crossing)):
+        return PipelineResult(False, "no crossing of the hitting plane in Drake")
+    t_cross = float(crossing[6])
+    n = int(np.sum(np.isfinite(frames_p[:, 0])))
+    times = np.arange(n) / FRAME_RATE
+    n = int(np.sum(times <= t_cross))
+    times = times[:n]
+    cam = CameraModel(camera)
+    z = cam.measure_sequence(camera_seed(seed), frames_p[:n])
+    lat = camera.latency_frames
+    if lat:  # frame k is only known at frame k + lat: the last lat frames are not yet delivered
+        z = z[: max(0, n - lat)]
+        times = times[: len(z)]
+
+    seen = {"after": 0}
+
+    def stop(i, ekf):
+        if full or not ekf.tracking:
+            return False
+        if ekf.x[1] < PLANES.observation_y and ekf.x[4] < 0.0:
+            seen["after"] += 1
+        else:
+            seen["after"] = 0
+        return seen["after"] >= 4
+
+    run = run_filter(times, z, estimator, stop=stop)
+    idx = observation_frames(run.states, run.tracking)
+    if idx is None:
+        return PipelineResult(False, "estimator not tracking at the observation frames", run=run)
+    state4 = run.states[idx[-1]]
+    feats = make_features(run.states[idx])
+    label = make_label(crossing[0:3], crossing[3:6], t_cross, float(times[idx[-1]]))
+    return PipelineResult(True, "", feats, label, state4, run)
+
+
+def build_dataset(samples: dict, camera: CameraConfig, estimator: EstimatorConfig,
+                  physical: bool = False, progress: bool = False, desc: str = "filtering"):
+    """Features X, labels Y, physical-model predictions (or None) and skipped-serve reasons."""
+    from tqdm import tqdm
+
+    X, Y, P, used, skipped = [], [], [], [], {}
+    phys = PhysicalPredictor() if physical else None
+    for i in tqdm(range(len(samples["seed"])), desc=desc, unit="serve", file=sys.stderr,
+                  disable=not progress):
+        r = run_pipeline(samples["frames_p"][i], samples["crossing"][i], int(samples["seed"][i]),
+                         camera, estimator)
+        if not r.ok:
+            skipped[r.reason] = skipped.get(r.reason, 0) + 1
+            continue
+        if phys is not None:
+            pred = phys.predict(r.state4)
+            if pred is None:
+                skipped["physical model misses the plane"] = skipped.get(
+                    "physical model misses the plane", 0) + 1
+                continue
+            P.append(pred)
+        X.append(r.features)
+        Y.append(r.label)
+        used.append(i)
+    if not X:
+        raise PredictorError("no usable serve: the estimator never produced the four observations")
+    return (np.array(X), np.array(Y), np.array(P) if physical else None, np.array(used), skipped)
+
+
+# -- model vs Drake, estimator statistics ---------------------------------------------------------
+
+def model_vs_drake(samples: dict, key: str = "model_crossing") -> dict:
+    """Ball model's predicted crossing from the true launch state vs Drake's (position, time);
+    ``key``: ``model_crossing`` (compliant bounce) or ``rigid_crossing`` (BallModel)."""
+    ok = np.all(np.isfinite(samples["crossing"]), axis=1) & np.all(
+        np.isfinite(samples[key]), axis=1)
+    dp = np.linalg.norm(samples[key][ok, :3] - samples["crossing"][ok, :3], axis=1)
+    dt = np.abs(samples[key][ok, 6] - samples["crossing"][ok, 6])
+    return {"serves": int(ok.sum()), "position_max_mm": float(dp.max() * 1e3),
+            "position_mean_mm": float(dp.mean() * 1e3), "time_max_ms": float(dt.max() * 1e3),
+            "time_mean_ms": float(dt.mean() * 1e3),
+            "within_5mm_2ms": float(np.mean((dp <= 5e-3) & (dt <= 2e-3)))}
+
+
+PHASES = ("to_net", "net_to_bounce", "after_bounce")
+
+
+def estimator_statistics(samples: dict, camera: CameraConfig, estimator: EstimatorConfig,
+                         max_serves: int = 200) -> dict:
+    """Position / velocity RMSE of the filter against truth per flight phase (before the net,
+    net to the robot-side bounce, bounce to the hitting plane), the fraction of steps whose NEES
+    lies in the two-sided 95 % chi-square band (6 dof) and the mean NEES."""
+    from scipy.stats import chi2
+
+    lo, hi = chi2.ppf(0.025, 6), chi2.ppf(0.975, 6)
+    err_p = {k: [] for k in PHASES}
+    err_v = {k: [] for k in PHASES}
+    all_nees = []
+    n = min(max_serves, len(samples["seed"]))
+    for i in range(n):
+        r = run_pipeline(samples["frames_p"][i], samples["crossing"][i], int(samples["seed"][i]),
+                         camera, estimator, full=True)
+        run = r.run
+        if run is None:
+            continue
+        m = len(run.times)
+        tp, tv = samples["frames_p"][i][:m], samples["frames_v"][i][:m]
+        bounce = np.nonzero((tp[1:, 1] < 0) & (tv[:-1, 2] < 0) & (tv[1:, 2] > 0))[0]
+        k_b = int(bounce[0]) + 1 if len(bounce) else m
+        for k in np.nonzero(run.tracking)[0]:
+            phase = PHASES[0] if tp[k, 1] > 0 else (PHASES[1] if k < k_b else PHASES[2])
+            err_p[phase].append(run.states[k, :3] - tp[k])
+            err_v[phase].append(run.states[k, 3:] - tv[k])
+        ok = run.tracking
+        e = np.concatenate([run.states[ok, :3] - tp[ok], run.states[ok, 3:] - tv[ok]], axis=1)
+        all_nees.append(nees(e, run.covariances[ok]))
+    out = {"serves": n}
+    for k in PHASES:
+        ep, ev = np.array(err_p[k]), np.array(err_v[k])
+        out[k] = {"steps": len(ep),
+                  "position_rmse_mm": float(np.sqrt(np.mean(np.sum(ep**2, 1))) * 1e3),
+                  "velocity_rmse_mm_s": float(np.sqrt(np.mean(np.sum(ev**2, 1))) * 1e3)}
+    a = np.concatenate(all_nees)
+    out["nees_mean"] = float(a.mean())
+    out["nees_in_95_band"] = float(np.mean((a >= lo) & (a <= hi)))
+    return out
+
+
+# -- train / eval commands -----------------------------------------------------------------------
+
+def _cache_dir(out: str) -> Path:
+    p = Path(out)
+    return p.with_name(p.name + ".cache")
+
+
+def train_predictor(serves: int, seed: int, out: str, camera: CameraConfig | None = None,
+                    estimator: EstimatorConfig | None = None, restarts: int = 1,
+                    workers: int = 2, progress: bool = True) -> dict:
+    from tt_drake.outputs import check_writable
+
+    check_writable(out)
+    camera = camera or CameraConfig()
+    estimator = estimator or EstimatorConfig()
+    wall = time.perf_counter()
+    samples = generate_samples(serves, seed, _cache_dir(out), workers, progress)
+    X, Y, _, used, skipped = build_dataset(samples, camera, estimator, progress=progress)
+    if len(X) < 20:
+        raise PredictorError(f"only {len(X)} usable training serves; need at least 20")
+
+    def tick(name):
+        if progress:
+            print(f"  fitted GP for {name}", file=sys.stderr)
+
+    gpr = HittingPointGPR.fit(X, Y, n_restarts=restarts, seed=seed, progress=tick)
+    train_rows = regression_metrics(Y, gpr.predict_many(X))
+    meta = {"train_seed": seed, "serves": serves, "used": int(len(X)), "skipped": skipped,
+            "camera": camera.as_dict(), "estimator": estimator.as_dict(),
+            "distribution": "default", "frame_rate": FRAME_RATE}
+    gpr.save(out, meta)
+    return {"out": out, "serves": serves, "used": int(len(X)), "skipped": skipped,
+            "train_metrics": train_rows, "kernels": gpr.info["kernels"],
+            "fit_seconds": gpr.info["fit_seconds"],
+            "wall_seconds": round(time.perf_counter() - wall, 1)}
+
+
+def query_time(gpr: HittingPointGPR, X: np.ndarray, repeats: int = 2000) -> dict:
+    """Wall time of one 7-output GPR query (median and 99th percentile over ``repeats``)."""
+    ts = []
+    for j in range(repeats):
+        x = X[j % len(X)]
+        t0 = time.perf_counter()
+        gpr.predict(x)
+        ts.append(time.perf_counter() - t0)
+    ts = np.array(ts) * 1e3
+    return {"median_ms": float(np.median(ts)), "p99_ms": float(np.percentile(ts, 99)),
+            "repeats": repeats}
+
+
+def eval_predictor(model: str, serves: int, seed: int, json_path: str | None = None,
+                   workers: int = 2, progress: bool = True) -> dict:
+    from tt_drake.outputs import check_writable, write_json_atomic
+
+    gpr = HittingPointGPR.load(model)
+    if json_path:
+        check_writable(json_path)
+    meta = gpr.meta
+    if meta.get("train_seed") == seed:
+        raise PredictorError(f"evaluation seed {seed} equals the training seed: use another "
+                             "seed for held-out serves")
+    camera = CameraConfig(**meta["camera"])
+    estimator = EstimatorConfig(**meta["estimator"])
+    wall = time.perf_counter()
+    cache = _cache_dir(json_path) if json_path else None
+    samples = generate_samples(serves, seed, cache, workers, progress)
+    X, Y, P, used, skipped = build_dataset(samples, camera, estimator, physical=True,
+                                           progress=progress)
+    G = gpr.predict_many(X)
+    data = {
+        "model": str(model), "eval_seed": seed, "train_seed": meta.get("train_seed"),
+        "serves": serves, "used": int(len(X)), "skipped": skipped,
+        "camera": camera.as_dict(), "estimator": estimator.as_dict(),
+        "gpr": regression_metrics(Y, G),
+        "physical": regression_metrics(Y, P),
+        "query_time": query_time(gpr, X),
+        "model_vs_drake": model_vs_drake(samples),
+        "rigid_model_vs_drake": model_vs_drake(samples, "rigid_crossing"),
+        "estimator_stats": estimator_statistics(samples, camera, estimator),
+        "wall_seconds": round(time.perf_counter() - wall, 1),
+    }
+    if json_path:
+        write_json_atomic(json_path, data)
+    return data
+
+
+def _fmt(v, spec):
+    return "exact" if v is None else format(v, spec)
+
+
+def format_eval(data: dict) -> str:
+    """The side-by-side table of MSE, RMSE and nMSE per output."""
+    lines = [f"held-out serves: {data['used']} of {data['serves']} (eval seed {data['eval_seed']},"
+             f" trained with seed {data['train_seed']})",
+             f"{'output':8s} {'':5s} | {'GPR MSE':>10s} {'RMSE':>9s} {'nMSE':>9s} | "
+             f"{'phys MSE':>10s} {'RMSE':>9s} {'nMSE':>9s}"]
+    for g, p in zip(data["gpr"], data["physical"], strict=True):
+        unit = g["report_unit"]
+        if g["exact"]:
+            lines.append(f"{g['output']:8s} {unit:5s} | exact: fixed by the hitting plane "
+                         f"(y = {PLANES.hitting_y:.2f} m)")
+            continue
+        lines.append(
+            f"{g['output']:8s} {unit:5s} | {g['mse']:10.3e} {g['rmse_report']:9.3f} "
+            f"{_fmt(g['nmse'], '9.2e')} | {p['mse']:10.3e} {p['rmse_report']:9.3f} "
+            f"{_fmt(p['nmse'], '9.2e')}")
+    lines.append("MSE in SI units (m^2, m^2/s^2, s^2); RMSE in the unit column.")
+    q = data.get("query_time")
+    if q:
+        lines.append(f"GPR query (7 outputs): median {q['median_ms']:.3f} ms, "
+                     f"p99 {q['p99_ms']:.3f} ms")
+    m = data.get("model_vs_drake")
+    if m:
+        lines.append(f"ball model vs Drake at the hitting plane over {m['serves']} serves: "
+                     f"max {m['position_max_mm']:.2f} mm, {m['time_max_ms']:.2f} ms")
+    return "\n".join(lines)
+
+
+def format_train(data: dict) -> str:
+    lines = [f"trained on {data['used']} of {data['serves']} serves in {data['fit_seconds']} s "
+             f"(GP fit); wrote {data['out']}"]
+    for row, kern in zip([r for r in data["train_metrics"] if not r["exact"]], data["kernels"],
+                         strict=True):
+        lines.append(f"  {row['output']:6s} train RMSE {row['rmse_report']:8.3f} "
+                     f"{row['report_unit']:5s} nMSE {row['nmse']:.2e}  kernel {kern[:60]}...")
+    return "\n".join(lines)
+
+
+__all__ = ["OUTPUT_NAMES", "train_predictor", "eval_predictor", "format_eval", "format_train",
+           "generate_samples", "run_pipeline", "model_vs_drake", "estimator_statistics",
+           "PredictorError"]

@@ -1,0 +1,61 @@
+"""BallFlightEstimator LeafSystem: the EKF of :mod:`tt_drake.estimation` at the camera's rate.
+
+Every camera period (offset a third of a period after the camera's update, so it sees the frame
+delivered at that tick) it reads the camera's ``measurement`` (x, y, z, t_capture, valid) and,
+if the frame is newer than the last one processed, runs one filter step at ``t_capture``:
+predict with the ball model (bounce included) and, unless the frame was dropped, gate and fuse the
+position. The complete filter state is the system's discrete state
+(:meth:`BallFlightEKF.to_vector`), so contexts clone and replay exactly.
+
+Ports:
+
+- input ``measurement`` (5): from ``BallCamera``;
+- output ``state`` (6): estimated (p, v) at ``status[1]`` (zeros while not tracking);
+- output ``covariance`` (36): its covariance, row-major 6 x 6;
+- output ``status`` (2): ``(valid, t_state)``; valid = 1 while the filter is tracking.
+"""
+
+import math
+
+import numpy as np
+from pydrake.systems.framework import LeafSystem
+
+from tt_drake.estimation import BallFlightEKF, EstimatorConfig
+
+
+class BallFlightEstimator(LeafSystem):
+    def __init__(self, config: EstimatorConfig | None = None, rate: float = 60.0):
+        super().__init__()
+        self.config = config or EstimatorConfig()
+        self._ekf = BallFlightEKF(self.config)  # scratch: loaded from / stored to the state
+        self._u = self.DeclareVectorInputPort("measurement", 5)
+        self._xd = self.DeclareDiscreteState(self._ekf.to_vector())
+        period = 1.0 / rate
+        self.DeclarePeriodicDiscreteUpdateEvent(period, period / 3.0, self._update)
+        deps = {self.xd_ticket()}
+        self.DeclareVectorOutputPort("state", 6, self._calc_state, prerequisites_of_calc=deps)
+        self.DeclareVectorOutputPort("covariance", 36, self._calc_cov, prerequisites_of_calc=deps)
+        self.DeclareVectorOutputPort("status", 2, self._calc_status, prerequisites_of_calc=deps)
+
+    def _update(self, context, discrete_state):
+        u = self._u.Eval(context)
+        t = float(u[3])
+        if math.isnan(t):
+            return
+        ekf = self._ekf
+        ekf.load_vector(context.get_discrete_state(self._xd).get_value())
+        if not t > ekf.last_frame_t:
+            return
+        ekf.step(t, np.array(u[0:3]) if u[4] > 0.5 else None)
+        discrete_state.set_value(self._xd, ekf.to_vector())
+
+    def _calc_state(self, context, output):
+        x = context.get_discrete_state(self._xd).get_value()
+        output.SetFromVector(x[2:8] if x[0] == 1.0 else np.zeros(6))
+
+    def _calc_cov(self, context, output):
+        output.SetFromVector(context.get_discrete_state(self._xd).get_value()[8:44])
+
+    def _calc_status(self, context, output):
+        x = context.get_discrete_state(self._xd).get_value()
+        output.SetFromVector([1.0 if x[0] == 1.0 else 0.0, x[1]])
