@@ -1,0 +1,102 @@
+"""Stage trajectories: boundary conditions and continuity of q, q_dot, q_ddot everywhere."""
+
+import numpy as np
+import pytest
+
+from tt_drake.stages import (
+    AWAITING,
+    FOLLOW_THROUGH,
+    HITTING,
+    PREPARATION,
+    JointLimits,
+    Quintic,
+    StageTimes,
+    plan_extremes,
+    plan_stroke,
+)
+
+RNG = np.random.default_rng(0)
+LIMITS = JointLimits(lower=-2.5 * np.ones(7), upper=2.5 * np.ones(7), velocity=10 * np.ones(7))
+Q_AWAIT = np.array([-0.8, 0.57, 1.5, 1.65, -2.0, -0.79, -1.06]) * 0.5
+
+
+def test_quintic_meets_its_boundary_conditions():
+    b = [RNG.normal(size=7) for _ in range(6)]
+    seg = Quintic.fit(0.3, 0.7, *b)
+    start, end = seg.evaluate(0.3), seg.evaluate(1.0)
+    for got, want in zip((*start, *end), b, strict=True):
+        np.testing.assert_allclose(got, want, atol=1e-10)
+
+
+def test_quintic_derivatives_are_consistent():
+    seg = Quintic.fit(0.0, 0.5, *[RNG.normal(size=3) for _ in range(6)])
+    h = 1e-6
+    for t in (0.1, 0.25, 0.4):
+        (q0, v0, a0), (q1, v1, _) = seg.evaluate(t), seg.evaluate(t + h)
+        np.testing.assert_allclose((q1 - q0) / h, v0, atol=1e-4)
+        np.testing.assert_allclose((v1 - v0) / h, a0, atol=1e-3)
+
+
+def jumps_at_boundaries(plan):
+    """Largest jump in (q, q_dot, q_ddot) where one segment hands over to the next."""
+    worst = np.zeros(3)
+    for (_, a), (_, b) in zip(plan.segments[:-1], plan.segments[1:], strict=True):
+        assert a.t_end == pytest.approx(b.t0)
+        end_a = a.evaluate(a.t_end)
+        start_b = b.evaluate(b.t0)
+        worst = np.maximum(worst, [np.abs(x - y).max() for x, y in zip(end_a, start_b,
+                                                                          strict=True)])
+    return worst
+
+
+def stroke(now=0.0, t_hit=0.8, state=None):
+    state = state or (Q_AWAIT, np.zeros(7), np.zeros(7))
+    q_hit = Q_AWAIT + RNG.uniform(-0.3, 0.3, 7)
+    qd_hit = RNG.uniform(-3, 3, 7)
+    return plan_stroke(now, state, t_hit, q_hit, qd_hit, Q_AWAIT, LIMITS), q_hit, qd_hit
+
+
+def test_stroke_has_the_four_stages_in_order_and_arrives_at_the_hit():
+    plan, q_hit, qd_hit = stroke()
+    assert [s for s, _ in plan.segments] == [PREPARATION, HITTING, FOLLOW_THROUGH, AWAITING]
+    q, qd, _ = plan.evaluate(0.8)
+    np.testing.assert_allclose(q, q_hit, atol=1e-10)
+    np.testing.assert_allclose(qd, qd_hit, atol=1e-10)
+    assert plan.stage_at(0.8 - StageTimes().hitting - 0.01) == PREPARATION
+    assert plan.stage_at(0.79) == HITTING and plan.stage_at(0.81) == FOLLOW_THROUGH
+    np.testing.assert_allclose(plan.evaluate(10.0)[0], Q_AWAIT, atol=1e-10)  # back and at rest
+    np.testing.assert_allclose(plan.evaluate(10.0)[1], 0.0, atol=1e-10)
+
+
+def test_stage_boundaries_are_continuous_in_position_velocity_and_acceleration():
+    for _ in range(20):
+        plan, _, _ = stroke(t_hit=RNG.uniform(0.3, 1.0))
+        assert np.all(jumps_at_boundaries(plan) < 1e-9)
+
+
+def test_replanning_from_the_current_desired_state_is_continuous():
+    plan, _, _ = stroke(t_hit=0.8)
+    now = 0.2
+    state = plan.evaluate(now)
+    replanned, _, _ = stroke(now=now, t_hit=0.82, state=state)
+    for before, after in zip(state, replanned.evaluate(now), strict=True):
+        np.testing.assert_allclose(before, after, atol=1e-12)
+
+
+def test_too_little_time_skips_the_swing_back():
+    plan, q_hit, _ = stroke(now=0.5, t_hit=0.75)
+    assert plan.segments[0][0] == HITTING
+    np.testing.assert_allclose(plan.evaluate(0.75)[0], q_hit, atol=1e-10)
+    with pytest.raises(ValueError, match="no time left"):
+        stroke(now=0.75, t_hit=0.75)
+
+
+def test_a_fast_hit_near_a_limit_stops_inside_it():
+    q_hit = np.full(7, 2.2)  # 0.25 rad from the margin, moving toward the limit at 3 rad/s
+    plan = plan_stroke(0.0, (Q_AWAIT, np.zeros(7), np.zeros(7)), 0.8, q_hit, np.full(7, 3.0),
+                       Q_AWAIT, LIMITS)
+    follow = plan.segments[2][1]
+    assert follow.duration < StageTimes().follow_through  # shortened to stop in time
+    ext = plan_extremes(plan)
+    assert np.all(ext["q_max"] <= LIMITS.upper - LIMITS.margin + 1e-9)
+    assert np.all(ext["q_min"] >= LIMITS.lower + LIMITS.margin - 1e-9)

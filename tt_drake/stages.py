@@ -1,0 +1,190 @@
+"""The four movement stages of a stroke as joint-space quintic segments (paper section III-A).
+
+- awaiting: hold the awaiting posture, or move back to it after a stroke;
+- preparation: swing back to the preparation posture, arriving at rest when the predicted time to
+  impact equals the hitting duration; re-planned from the current desired state whenever the
+  prediction improves;
+- hitting: from rest to the hitting configuration (theta_hit, theta_dot_hit) at t_hit;
+- follow-through: keep moving the way the racket went and come to rest; then awaiting again.
+
+Every segment is a quintic per joint fitted to position, velocity and acceleration at both ends
+and starts from the state where the previous one stands at that instant, so q, q_dot and q_ddot
+are continuous everywhere, also across re-plans.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+AWAITING, PREPARATION, HITTING, FOLLOW_THROUGH = "awaiting", "preparation", "hitting", \
+    "follow_through"
+STAGES = (AWAITING, PREPARATION, HITTING, FOLLOW_THROUGH)
+
+
+@dataclass(frozen=True)
+class Quintic:
+    """q(t) = sum_k c_k (t - t0)^k, k = 0..5, per joint, on [t0, t0 + duration].
+
+    Outside the interval it is clamped: before t0 it stands at its start state, after the end at
+    its end position with its end velocity continued at zero acceleration (only the last segment
+    of a plan is ever evaluated past its end, and it ends at rest).
+    """
+
+    t0: float
+    duration: float
+    coeffs: np.ndarray  # (n_dof, 6)
+
+    @classmethod
+    def fit(cls, t0, duration, q0, v0, a0, q1, v1, a1) -> Quintic:
+        """The quintic with the given boundary positions, velocities and accelerations."""
+        T = float(duration)
+        if T <= 0.0:
+            raise ValueError(f"segment duration must be > 0, got {T}")
+        q0, v0, a0, q1, v1, a1 = (np.asarray(x, dtype=float) for x in (q0, v0, a0, q1, v1, a1))
+        c0, c1, c2 = q0, v0, 0.5 * a0
+        # Remaining coefficients from the end conditions (standard quintic boundary solution).
+        h = q1 - q0 - v0 * T - 0.5 * a0 * T * T
+        dv = v1 - v0 - a0 * T
+        da = a1 - a0
+        c3 = (10 * h - 4 * dv * T + 0.5 * da * T * T) / T**3
+        c4 = (-15 * h + 7 * dv * T - da * T * T) / T**4
+        c5 = (6 * h - 3 * dv * T + 0.5 * da * T * T) / T**5
+        return cls(float(t0), T, np.stack([c0, c1, c2, c3, c4, c5], axis=1))
+
+    @property
+    def t_end(self) -> float:
+        return self.t0 + self.duration
+
+    def evaluate(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        s = min(max(t - self.t0, 0.0), self.duration)
+        c = self.coeffs
+        q = ((((c[:, 5] * s + c[:, 4]) * s + c[:, 3]) * s + c[:, 2]) * s + c[:, 1]) * s + c[:, 0]
+        v = (((5 * c[:, 5] * s + 4 * c[:, 4]) * s + 3 * c[:, 3]) * s + 2 * c[:, 2]) * s + c[:, 1]
+        a = ((20 * c[:, 5] * s + 12 * c[:, 4]) * s + 6 * c[:, 3]) * s + 2 * c[:, 2]
+        extra = t - self.t_end
+        if extra > 0.0:
+            q = q + v * extra
+            a = np.zeros_like(a)
+        return q, v, a
+
+    def sample(self, rate: float = 500.0) -> tuple[np.ndarray, ...]:
+        """(t, q, q_dot, q_ddot) sampled over the segment at ``rate`` Hz, both ends included."""
+        n = max(2, int(round(self.duration * rate)) + 1)
+        times = np.linspace(self.t0, self.t_end, n)
+        q, v, a = zip(*(self.evaluate(t) for t in times), strict=True)
+        return times, np.array(q), np.array(v), np.array(a)
+
+
+@dataclass
+class StagePlan:
+    """A sequence of (stage, segment), each starting where the previous one ends; evaluated by
+    time. Before the first segment and after the last it holds the boundary states."""
+
+    segments: list[tuple[str, Quintic]] = field(default_factory=list)
+
+    def stage_at(self, t: float) -> str:
+        for stage, seg in self.segments:
+            if t < seg.t_end:
+                return stage
+        return AWAITING
+
+    def segment_at(self, t: float) -> Quintic:
+        for _, seg in self.segments:
+            if t < seg.t_end:
+                return seg
+        return self.segments[-1][1]
+
+    def evaluate(self, t: float):
+        return self.segment_at(t).evaluate(t)
+
+    def truncated(self, t: float) -> StagePlan:
+        """The part of the plan already under way at ``t`` (segments starting before ``t``)."""
+        return StagePlan([(s, q) for s, q in self.segments if q.t0 < t])
+
+
+@dataclass(frozen=True)
+class StageTimes:
+    """Durations (s) of the stroke stages the analytical player uses."""
+
+    hitting: float = 0.40  # the hitting stage: from rest at the preparation posture to the hit
+    follow_through: float = 0.30
+    return_to_awaiting: float = 0.80
+    min_preparation: float = 0.10  # shorter than this and the swing-back is skipped
+    min_follow_through: float = 0.10
+
+
+@dataclass(frozen=True)
+class JointLimits:
+    lower: np.ndarray
+    upper: np.ndarray
+    velocity: np.ndarray
+    margin: float = 0.05  # rad kept from the position limits when choosing postures
+
+    def clip(self, q: np.ndarray) -> np.ndarray:
+        return np.clip(q, self.lower + self.margin, self.upper - self.margin)
+
+
+def plan_stroke(now: float, state: tuple, t_hit: float, q_hit, qd_hit, q_await,
+                limits: JointLimits, times: StageTimes = StageTimes()) -> StagePlan:
+    """The whole stroke from the current desired ``state`` = (q, q_dot, q_ddot) at ``now``:
+    preparation -> hitting (arriving at (q_hit, qd_hit) at ``t_hit``) -> follow-through ->
+    back to ``q_await``.
+
+    Preparation posture: q_prep = q_hit - (T_hit / 2) qd_hit (clipped to the limits), the
+    swing-back from which a rest-to-rest-like quintic reaches qd_hit in T_hit. Follow-through:
+    q_hit + (T_ft / 2) qd_hit reached at rest, a quintic without overshoot; T_ft is shortened
+    (to no less than ``min_follow_through``) so that every joint stops inside its limits. If less
+    than ``min_preparation`` remains before the hitting stage would start, the hitting segment
+    starts now from ``state``.
+    """
+    q, qd, qdd = (np.asarray(x, dtype=float) for x in state)
+    q_hit, qd_hit = np.asarray(q_hit, dtype=float), np.asarray(qd_hit, dtype=float)
+    zero = np.zeros_like(q)
+    segments: list[tuple[str, Quintic]] = []
+    t_start_hit = t_hit - times.hitting
+    if t_start_hit - now >= times.min_preparation:
+        q_prep = limits.clip(q_hit - 0.5 * times.hitting * qd_hit)
+        prep = Quintic.fit(now, t_start_hit - now, q, qd, qdd, q_prep, zero, zero)
+        segments.append((PREPARATION, prep))
+        start = (q_prep, zero, zero, t_start_hit)
+    else:
+        if t_hit - now <= 1e-3:
+            raise ValueError(f"no time left to hit: t_hit {t_hit:.3f} s, now {now:.3f} s")
+        start = (q, qd, qdd, now)
+    hit = Quintic.fit(start[3], t_hit - start[3], start[0], start[1], start[2], q_hit, qd_hit, zero)
+    segments.append((HITTING, hit))
+    t_follow = follow_through_time(q_hit, qd_hit, limits, times)
+    q_end = limits.clip(q_hit + 0.5 * t_follow * qd_hit)
+    follow = Quintic.fit(t_hit, t_follow, q_hit, qd_hit, zero, q_end, zero, zero)
+    segments.append((FOLLOW_THROUGH, follow))
+    back = Quintic.fit(follow.t_end, times.return_to_awaiting, q_end, zero, zero,
+                       np.asarray(q_await, dtype=float), zero, zero)
+    segments.append((AWAITING, back))
+    return StagePlan(segments)
+
+
+def follow_through_time(q_hit, qd_hit, limits: JointLimits, times: StageTimes) -> float:
+    """The longest follow-through (up to ``times.follow_through``) in which every joint, moving
+    (T / 2) qd on a rest-ending quintic, stays inside its limits (less the margin)."""
+    room = np.where(qd_hit > 0, limits.upper - limits.margin - q_hit,
+                    q_hit - (limits.lower + limits.margin))
+    speed = np.abs(qd_hit)
+    with np.errstate(divide="ignore"):
+        allowed = np.where(speed > 1e-9, 2.0 * np.maximum(room, 0.0) / speed, np.inf)
+    return float(np.clip(allowed.min(), times.min_follow_through, times.follow_through))
+
+
+def plan_extremes(plan: StagePlan, rate: float = 500.0) -> dict:
+    """Sampled extremes of a plan: lowest and highest positions, largest |q_dot| and |q_ddot|
+    per joint."""
+    qs, vs, accs = [], [], []
+    for _, seg in plan.segments:
+        _, q, v, a = seg.sample(rate)
+        qs.append(q)
+        vs.append(v)
+        accs.append(a)
+    q, v, a = np.vstack(qs), np.vstack(vs), np.vstack(accs)
+    return {"q_min": q.min(0), "q_max": q.max(0), "qd_max": np.abs(v).max(0),
+            "qdd_max": np.abs(a).max(0)}
