@@ -1,0 +1,204 @@
+"""Hitting IK (systems/hitting_ik.py) checked against kinematics it does not use.
+
+Poses are re-computed two ways outside the solver's plant: the numpy DH chain of
+tt_drake.wam_params (itself tested against an independent DH build in test_wam.py) and
+systems/wam.racket_pose on a second, separately built control plant. Racket twists are checked
+against central finite differences of the DH pose.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from tt_drake import wam_params as wp
+from tt_drake.constants import HITTING_REGION, PLANES, TARGET
+from tt_drake.systems import wam
+from tt_drake.systems.hitting_ik import (
+    HITTING_COMFORT,
+    HittingIK,
+    velocity_limit_usage,
+    within_velocity_limits,
+)
+
+LOWER = np.array(wp.JOINT_LOWER)
+UPPER = np.array(wp.JOINT_UPPER)
+MM = 1e-3
+DEG = math.radians(1.0)
+
+
+@pytest.fixture(scope="module")
+def ik():
+    return HittingIK()
+
+
+@pytest.fixture(scope="module")
+def other_plant():
+    plant = wam.make_control_plant()
+    context = plant.CreateDefaultContext()
+    instance = plant.GetFrameByName(wam.RACKET_CENTER_FRAME).model_instance()
+    return plant, context, instance
+
+
+def _rotate(v, axis, angle):
+    axis = axis / np.linalg.norm(axis)
+    return (v * math.cos(angle) + np.cross(axis, v) * math.sin(angle)
+            + axis * (axis @ v) * (1 - math.cos(angle)))
+
+
+def _toward_target(p, pitch=0.0, yaw=0.0):
+    """Unit normal from p toward the opponent's court centre, turned by pitch (face up for > 0)
+    about the horizontal axis n x z, then by yaw about world z."""
+    n = np.array([TARGET.x, TARGET.y, TARGET.z]) - p
+    n /= np.linalg.norm(n)
+    n = _rotate(n, np.cross(n, [0.0, 0.0, 1.0]), pitch)
+    return _rotate(n, np.array([0.0, 0.0, 1.0]), yaw)
+
+
+def _in_unreachable_corner(x, z):
+    """The low forehand corner of the hitting region, at the edge of the arm's reach, where some
+    tilted normals have no solution (docs/hitting_ik.md)."""
+    return x >= 0.65 and z <= 1.05
+
+
+def _requests(n=30, seed=3):
+    rng = np.random.default_rng(seed)
+    r = HITTING_REGION
+    out = []
+    for _ in range(n):
+        p = np.array([rng.uniform(r.x_min, r.x_max), PLANES.hitting_y,
+                      rng.uniform(r.z_min, r.z_max)])
+        pitch, yaw = rng.uniform(-math.radians(15), math.radians(15), 2)
+        out.append((p, _toward_target(p, pitch, yaw)))
+    return out
+
+
+def _dh_error(q, p, n):
+    x_wc = wp.racket_center_in_world(q)
+    angle = math.acos(np.clip(x_wc[:3, 1] @ n, -1.0, 1.0))
+    return float(np.linalg.norm(x_wc[:3, 3] - p)), angle
+
+
+def test_comfort_posture_is_a_centred_forehand_pose():
+    q = np.array(HITTING_COMFORT)
+    half = 0.5 * (UPPER - LOWER)
+    assert np.all(np.abs(q - 0.5 * (UPPER + LOWER)) <= 0.6 * half)
+    x_wc = wp.racket_center_in_world(q)
+    np.testing.assert_allclose(x_wc[:3, 3], [0.3, PLANES.hitting_y, 1.1], atol=0.01)
+    target_normal = np.array([0.0, 1.0, 0.2]) / math.hypot(1.0, 0.2)
+    assert math.acos(x_wc[:3, 1] @ target_normal) < DEG
+    assert HITTING_REGION.contains(x_wc[0, 3], x_wc[2, 3])
+
+
+def test_random_requests_reach_pose_within_1mm_1deg_inside_limits(ik, other_plant):
+    plant, context, instance = other_plant
+    solved = skipped = 0
+    for p, n in _requests():
+        s = ik.solve(p, n)
+        if not s.success:
+            assert _in_unreachable_corner(p[0], p[2]), f"no solution at {p} normal {n}"
+            skipped += 1
+            continue
+        solved += 1
+        position_error, angle_error = _dh_error(s.q, p, n)
+        assert position_error <= MM and angle_error <= DEG
+        assert s.position_error <= 1e-4 and s.angle_error <= 1e-3
+        assert abs(s.position_error - position_error) < 1e-9
+        plant.SetPositions(context, instance, s.q)
+        pose = wam.racket_pose(plant, context, instance)
+        assert np.linalg.norm(pose.translation() - p) <= MM
+        assert math.acos(np.clip(pose.rotation().matrix()[:, 1] @ n, -1, 1)) <= DEG
+        assert np.all(s.q >= LOWER + ik.margin - 1e-9) and np.all(s.q <= UPPER - ik.margin + 1e-9)
+        assert s.limit_margin >= ik.margin - 1e-9
+    assert solved >= 27 and skipped <= 3
+
+
+def test_warm_start_from_a_neighbouring_answer(ik):
+    p = np.array([0.1, PLANES.hitting_y, 1.2])
+    first = ik.solve(p, _toward_target(p))
+    p2 = p + [0.02, 0.0, -0.02]
+    second = ik.solve(p2, _toward_target(p2), q_seed=first.q)
+    assert second.success and second.attempts == 1
+    assert np.max(np.abs(second.q - first.q)) < 0.2  # same branch, small step
+
+
+def test_unreachable_requests_report_failure(ik):
+    far = np.array([0.3, PLANES.hitting_y + 3.0, 1.1])
+    s = ik.solve(far, [0.0, 1.0, 0.0])
+    assert not s.success and s.attempts == 0 and s.position_error > 2.0
+    # Just inside the reach bound but out of reach with this normal: the solver runs and fails.
+    corner = np.array([0.8, PLANES.hitting_y, 0.8])
+    s = ik.solve(corner, _toward_target(corner))
+    assert not s.success and s.attempts >= 2
+    assert s.position_error > 1e-4 or s.angle_error > 1e-3
+    with pytest.raises(ValueError):
+        ik.solve(corner, [0.0, 0.0, 0.0])
+
+
+def _fd_twist(q, qdot, h=1e-6):
+    """[ω; v] of the racket centre from central differences of the DH pose along q̇."""
+    plus = wp.racket_center_in_world(q + h * qdot)
+    minus = wp.racket_center_in_world(q - h * qdot)
+    v = (plus[:3, 3] - minus[:3, 3]) / (2 * h)
+    r = wp.racket_center_in_world(q)[:3, :3]
+    skew = (plus[:3, :3] - minus[:3, :3]) / (2 * h) @ r.T  # dR/dt R^T = [ω]x
+    return np.concatenate([[skew[2, 1], skew[0, 2], skew[1, 0]], v])
+
+
+def test_joint_velocities_reproduce_the_racket_twist(ik):
+    rng = np.random.default_rng(11)
+    for p, n in _requests(8, seed=5):
+        s = ik.solve(p, n)
+        if not s.success:
+            continue
+        v = rng.normal(size=3) * 2.0
+        w = rng.normal(size=3)
+        twist = np.concatenate([w, v])
+        for gain in (0.0, 1.0, 5.0):
+            qdot = ik.joint_velocities(s.q, v, w, null_gain=gain)
+            np.testing.assert_allclose(ik.racket_velocity(s.q, qdot), twist, atol=1e-9)
+            np.testing.assert_allclose(_fd_twist(s.q, qdot), twist, atol=1e-6)
+        # Default: a non-rotating racket.
+        qdot = ik.joint_velocities(s.q, v)
+        np.testing.assert_allclose(ik.racket_velocity(s.q, qdot), np.r_[0, 0, 0, v], atol=1e-9)
+
+
+def test_null_space_motion_goes_toward_comfort_without_changing_the_twist(ik):
+    p = np.array([-0.1, PLANES.hitting_y, 1.4])
+    s = ik.solve(p, _toward_target(p, pitch=math.radians(10)))
+    assert s.success and np.linalg.norm(s.q - ik.comfort) > 0.3
+    v = np.array([0.5, 3.0, 1.0])
+    base = ik.joint_velocities(s.q, v, null_gain=0.0)
+    moved = ik.joint_velocities(s.q, v, null_gain=2.0)
+    extra = moved - base
+    assert np.linalg.norm(extra) > 1e-3
+    np.testing.assert_allclose(ik.jacobian(s.q) @ extra, 0.0, atol=1e-9)
+    assert extra @ (ik.comfort - s.q) > 0.0  # a projection is positive semi-definite
+    # The gain scales it linearly; the least-norm part is orthogonal to it.
+    np.testing.assert_allclose(ik.joint_velocities(s.q, v, null_gain=4.0) - base, 2 * extra,
+                               atol=1e-9)
+    assert abs(base @ extra) < 1e-9
+
+
+def test_velocity_limit_helpers_report_without_clipping(ik):
+    q = np.array(HITTING_COMFORT)
+    slow = ik.joint_velocities(q, [0.0, 2.0, 0.5])
+    assert within_velocity_limits(slow) and velocity_limit_usage(slow) < 1.0
+    fast = ik.joint_velocities(q, [0.0, 40.0, 0.0])
+    assert not within_velocity_limits(fast) and velocity_limit_usage(fast) > 1.0
+    np.testing.assert_allclose(ik.racket_velocity(q, fast)[3:], [0.0, 40.0, 0.0], atol=1e-8)
+
+
+def test_singular_arm_raises(ik):
+    with pytest.raises(ValueError, match="singular"):
+        ik.joint_velocities(np.zeros(7), [0.0, 1.0, 0.0])
+
+
+def test_racket_pose_matches_dh(ik):
+    rng = np.random.default_rng(2)
+    for _ in range(5):
+        q = rng.uniform(LOWER, UPPER)
+        np.testing.assert_allclose(ik.racket_pose(q).GetAsMatrix4(),
+                                   wp.racket_center_in_world(q), atol=1e-12)
