@@ -1,0 +1,151 @@
+"""BallCamera, BallFlightEstimator and HittingPointPredictor through their ports, a Drake
+diagram that matches the offline pipeline, and the ball model vs Drake at the hitting plane."""
+
+import math
+
+import numpy as np
+import pytest
+from pydrake.systems.framework import DiagramBuilder
+
+from tt_drake.camera_model import CameraConfig
+from tt_drake.constants import PLANES
+from tt_drake.diagrams.predictor import (
+    BallOnlySimulation,
+    camera_seed,
+    generate_samples,
+    model_vs_drake,
+    run_pipeline,
+)
+from tt_drake.estimation import BallFlightEKF, EstimatorConfig
+from tt_drake.hitting_point import PhysicalPredictor
+from tt_drake.systems.ball_camera import BallCamera
+from tt_drake.systems.ball_flight_estimator import BallFlightEstimator
+from tt_drake.systems.hitting_point_predictor import HittingPointPredictor
+
+PERIOD = 1.0 / 60
+
+
+def ball_state(p, v=(0.0, 0.0, 0.0)):
+    return np.r_[1.0, 0.0, 0.0, 0.0, p, 0.0, 0.0, 0.0, v]
+
+
+def step(system, context, t):
+    """One periodic discrete update at time t, applied to the context."""
+    context.SetTime(t)
+    xd = system.EvalUniquePeriodicDiscreteUpdate(context)
+    context.SetDiscreteState(xd.get_vector(0).CopyToVector())
+
+
+def test_camera_without_noise_reports_the_true_position():
+    cam = BallCamera(CameraConfig(sigma=0.0))
+    ctx = cam.CreateDefaultContext()
+    cam.GetInputPort("ball_state").FixValue(ctx, ball_state([0.1, 0.2, 0.9]))
+    assert math.isnan(cam.GetOutputPort("measurement").Eval(ctx)[3])
+    step(cam, ctx, 0.0)
+    assert cam.GetOutputPort("measurement").Eval(ctx) == pytest.approx([0.1, 0.2, 0.9, 0.0, 1.0])
+
+
+def test_camera_latency_dropouts_and_seed():
+    cam = BallCamera(CameraConfig(latency=2 * PERIOD, dropout=0.5))
+    ctx = cam.CreateDefaultContext()
+    cam.set_seed(ctx, 42)
+    port = cam.GetInputPort("ball_state")
+    out = []
+    for k in range(12):
+        port.FixValue(ctx, ball_state([0.0, 1.0 - 0.1 * k, 1.0]))
+        step(cam, ctx, k * PERIOD)
+        out.append(cam.GetOutputPort("measurement").Eval(ctx).copy())
+    out = np.array(out)
+    assert np.all(np.isnan(out[:2, 3]))  # nothing delivered yet
+    assert out[2:, 3] == pytest.approx(np.arange(10) * PERIOD)  # capture times, 2 frames late
+    dropped = cam.model.episode_draws(42).dropped[:10]
+    assert np.array_equal(out[2:, 4] == 0.0, dropped)
+    ok = ~dropped
+    assert out[2:][ok, 1] == pytest.approx(1.0 - 0.1 * np.arange(10)[ok], abs=0.02)
+
+
+def test_estimator_matches_the_numpy_filter():
+    est = BallFlightEstimator()
+    ctx = est.CreateDefaultContext()
+    ekf = BallFlightEKF()
+    rng = np.random.default_rng(0)
+    for k in range(10):
+        t = k * PERIOD
+        p = [0.1, 1.5 - 5.0 * t, 0.9 + 2.0 * t - 4.9 * t * t]
+        z = np.asarray(p) + rng.normal(0, 0.003, 3)
+        est.GetInputPort("measurement").FixValue(ctx, np.r_[z, t, 1.0])
+        step(est, ctx, t + PERIOD / 3)
+        ekf.step(t, z)
+    status = est.GetOutputPort("status").Eval(ctx)
+    assert status == pytest.approx([1.0, 9 * PERIOD])
+    assert est.GetOutputPort("state").Eval(ctx) == pytest.approx(ekf.x, abs=1e-12)
+    assert est.GetOutputPort("covariance").Eval(ctx) == pytest.approx(ekf.P.ravel(), abs=1e-15)
+
+
+def test_predictor_collects_four_observations_after_the_plane():
+    pred = HittingPointPredictor()  # physical model
+    ctx = pred.CreateDefaultContext()
+    states = [np.array([0.1, 0.15 - 0.09 * k, 0.95, 0.1, -5.4, -1.0 - 0.16 * k]) for k in range(8)]
+    for k, s in enumerate(states):
+        pred.GetInputPort("state").FixValue(ctx, s)
+        pred.GetInputPort("status").FixValue(ctx, [1.0, k * PERIOD])
+        step(pred, ctx, k * PERIOD + 2 * PERIOD / 3)
+        valid = pred.GetOutputPort("valid").Eval(ctx)[0]
+        after = sum(1 for j in range(k + 1) if states[j][1] < PLANES.observation_y)
+        assert valid == (1.0 if after >= 4 else 0.0)
+    first_after = next(j for j, s in enumerate(states) if s[1] < 0.0)
+    fourth = states[first_after + 3]
+    expected = PhysicalPredictor().predict(fourth)
+    assert pred.GetOutputPort("p_hit").Eval(ctx) == pytest.approx(expected[:3])
+    assert pred.GetOutputPort("v_hit").Eval(ctx) == pytest.approx(expected[3:6])
+    assert pred.GetOutputPort("t_hit").Eval(ctx)[0] == pytest.approx(
+        (first_after + 3) * PERIOD + expected[6])
+
+
+def test_diagram_matches_the_offline_pipeline():
+    """Camera -> estimator -> predictor in a Drake world equals the numpy pipeline on the log."""
+    sample = generate_samples(1, 5, None, workers=1, progress=False)
+    seed = int(sample["seed"][0])
+    camera, estimator = CameraConfig(), EstimatorConfig()
+    offline = run_pipeline(sample["frames_p"][0], sample["crossing"][0], seed, camera, estimator)
+    assert offline.ok
+
+    sim = BallOnlySimulation()  # reuse its recipe, add the vision systems to a new diagram
+    from tt_drake.systems.aerodynamics import Aerodynamics
+    from tt_drake.systems.world import WorldConfig, add_world, make_simulator, set_ball_state
+
+    builder = DiagramBuilder()
+    world = add_world(builder, WorldConfig(with_robot=False))
+    plant = world.plant
+    aero = builder.AddSystem(Aerodynamics(plant.num_velocities(),
+                                          world.ball_body.floating_velocities_start_in_v()))
+    builder.Connect(plant.get_state_output_port(world.ball), aero.get_input_port(0))
+    builder.Connect(aero.get_output_port(0), plant.get_applied_generalized_force_input_port())
+    cam = builder.AddSystem(BallCamera(camera))
+    est = builder.AddSystem(BallFlightEstimator(estimator))
+    pred = builder.AddSystem(HittingPointPredictor(physical=PhysicalPredictor()))
+    builder.Connect(plant.get_state_output_port(world.ball), cam.get_input_port(0))
+    builder.Connect(cam.GetOutputPort("measurement"), est.GetInputPort("measurement"))
+    builder.Connect(est.GetOutputPort("state"), pred.GetInputPort("state"))
+    builder.Connect(est.GetOutputPort("status"), pred.GetInputPort("status"))
+    diagram = builder.Build()
+    simulator = make_simulator(diagram, sim.config)
+    ctx = simulator.get_mutable_context()
+    cam.set_seed(cam.GetMyMutableContextFromRoot(ctx), camera_seed(seed))
+    set_ball_state(world, plant.GetMyMutableContextFromRoot(ctx), sample["launch"][0])
+    simulator.Initialize()
+    simulator.AdvanceTo(float(sample["crossing"][0][6]) - 0.05)
+    pctx = pred.GetMyContextFromRoot(ctx)
+    assert pred.GetOutputPort("valid").Eval(pctx)[0] == 1.0
+    obs = pred.GetMyContextFromRoot(ctx).get_discrete_state(0).get_value()[2:26].reshape(4, 6)
+    assert obs == pytest.approx(offline.features.reshape(4, 6), abs=2e-4)
+    expected = PhysicalPredictor().predict(offline.state4)
+    assert pred.GetOutputPort("p_hit").Eval(pctx) == pytest.approx(expected[:3], abs=2e-3)
+
+
+def test_ball_model_matches_drake_at_the_hitting_plane():
+    """From the true launch state, within 5 mm and 2 ms on 20 default serves."""
+    s = generate_samples(20, 2024, None, workers=1, progress=False)
+    r = model_vs_drake(s)
+    assert r["serves"] == 20
+    assert r["position_max_mm"] <= 5.0 and r["time_max_ms"] <= 2.0, r
