@@ -9,7 +9,9 @@ reached the floor) or, at the latest, the predicted crossing of the hitting plan
 ``Scenario.after_crossing``.
 
 Players are registered in :data:`PLAYERS`: a function that adds the player's systems to the
-builder and connects them to the controller's desired-state and desired-acceleration inputs.
+builder, connects them to the controller's desired-state and desired-acceleration inputs, and
+returns the systems that draw random numbers (each has ``set_seed(context, seed)``; the episode
+gives each its own seed derived from the episode's).
 """
 
 import time
@@ -32,7 +34,7 @@ class PlayerError(ValueError):
     """An unknown player name or a player that cannot be built."""
 
 
-def _idle_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario) -> None:
+def _idle_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario) -> list:
     """Hold the awaiting posture: constant desired state (q_await, 0) and zero acceleration."""
     from tt_drake.wam_params import AWAITING
 
@@ -41,9 +43,40 @@ def _idle_player(builder: DiagramBuilder, world: World, controller, scenario: Sc
     builder.Connect(desired.get_output_port(), controller.get_input_port_desired_state())
     accel = builder.AddNamedSystem("idle_acceleration", ConstantVectorSource(np.zeros(7)))
     builder.Connect(accel.get_output_port(), controller.get_input_port_desired_acceleration())
+    return []
 
 
-PLAYERS: dict[str, Callable] = {"idle": _idle_player}
+def add_vision(builder: DiagramBuilder, world: World, scenario: Scenario):
+    """Camera (60 Hz, noisy) -> ball-flight estimator; returns (camera, estimator)."""
+    from tt_drake.systems.ball_camera import BallCamera
+    from tt_drake.systems.ball_flight_estimator import BallFlightEstimator
+
+    camera = builder.AddNamedSystem("ball_camera", BallCamera())
+    builder.Connect(world.plant.get_state_output_port(world.ball), camera.get_input_port(0))
+    estimator = builder.AddNamedSystem("ball_flight_estimator", BallFlightEstimator())
+    builder.Connect(camera.GetOutputPort("measurement"), estimator.GetInputPort("measurement"))
+    return camera, estimator
+
+
+def _analytical_player(builder: DiagramBuilder, world: World, controller,
+                       scenario: Scenario) -> list:
+    """The teacher: camera -> estimator -> physical-model planner -> polynomial stages."""
+    from tt_drake.systems.analytical_player import AnalyticalPlayer, PlannerConfig, StrokePlanner
+
+    camera, estimator = add_vision(builder, world, scenario)
+    config = PlannerConfig(target_x=scenario.referee.target_x, target_y=scenario.referee.target_y)
+    player = builder.AddNamedSystem("analytical_player",
+                                    AnalyticalPlayer(StrokePlanner(config=config)))
+    builder.Connect(estimator.GetOutputPort("state"), player.GetInputPort("estimated_state"))
+    builder.Connect(estimator.GetOutputPort("status"), player.GetInputPort("estimator_status"))
+    builder.Connect(player.GetOutputPort("desired_state"),
+                    controller.get_input_port_desired_state())
+    builder.Connect(player.GetOutputPort("desired_acceleration"),
+                    controller.get_input_port_desired_acceleration())
+    return [camera]
+
+
+PLAYERS: dict[str, Callable] = {"idle": _idle_player, "analytical": _analytical_player}
 
 
 @dataclass
@@ -90,12 +123,13 @@ class ServeDiagram:
         builder.Connect(plant.get_body_poses_output_port(), self.referee.get_input_port(1))
         builder.Connect(plant.get_contact_results_output_port(), self.referee.get_input_port(2))
         self.controller = None
+        self.seeded = [self.launcher]
         if world.robot is not None:
             from tt_drake.systems.wam import add_wam_controller
 
             c = scenario.controller
             self.controller = add_wam_controller(builder, plant, world.robot, c.kp, c.ki, c.kd)
-            PLAYERS[player](builder, world, self.controller, scenario)
+            self.seeded += PLAYERS[player](builder, world, self.controller, scenario)
         self.ball_logger = None
         if log_ball:
             self.ball_logger = builder.AddNamedSystem("ball_logger", VectorLogSink(13, 1.0 / 120))
@@ -144,9 +178,10 @@ class ServeDiagram:
         wall = time.perf_counter()
         self.context.SetTimeStateAndParametersFrom(self._initial)
         self.context.SetTime(start_time)
-        launcher_context = self.launcher.GetMyMutableContextFromRoot(self.context)
-        self.launcher.set_seed(launcher_context, seed)
-        serve = self.launcher.serve(launcher_context)
+        for k, system in enumerate(self.seeded):  # the launcher gets the episode seed itself
+            system.set_seed(system.GetMyMutableContextFromRoot(self.context),
+                            seed if k == 0 else episode_seed(seed, k))
+        serve = self.launcher.serve(self.launcher.GetMyContextFromRoot(self.context))
         plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
         set_ball_state(self.world, plant_context, serve.launch_state)
         if self.ball_logger is not None:

@@ -24,23 +24,17 @@ from pydrake.multibody.plant import ContactResults
 from pydrake.systems.framework import EventStatus, LeafSystem
 
 from tt_drake.referee_rules import ContactDetector, Outcome, RefereeConfig, judge
+from tt_drake.systems.immutable import Immutable
 
 
-class _RefereeState:
+class _RefereeState(Immutable):
     """The referee's abstract state: the last sample, the contact events so far and whether the
-    robot touched the table. Immutable (every update makes a new one), so Drake's copies of it,
-    made at every update and context clone, can share it instead of deep-copying the events."""
+    robot touched the table; every update makes a new one."""
 
     __slots__ = ("sample", "events", "touched")
 
     def __init__(self, sample=None, events=(), touched=False):
         self.sample, self.events, self.touched = sample, events, touched
-
-    def __copy__(self):
-        return self
-
-    def __deepcopy__(self, memo):
-        return self
 
 
 class Referee(LeafSystem):

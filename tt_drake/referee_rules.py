@@ -88,15 +88,17 @@ class ContactDetector:
         jump = math.sqrt(sum((v[i] - v0[i] - 0.5 * dt * (a0[i] + a1[i])) ** 2 for i in range(3)))
         if jump < self.config.velocity_jump:
             return None
-        return ContactEvent(t, *self._classify(p0, v0, p, v, racket0, racket))
+        kind, position = self._classify(p0, v0, p, v, racket0, racket)
+        return None if kind is None else ContactEvent(t, kind, position)
 
     def _classify(self, p0, v0, p1, v1, racket0, racket1):
         r = self.model.params.radius
         contact_z = TABLE.surface_z + r
         near = 0.03
         lo_z = min(p0[2], p1[2])
-        # Table: the ball came down to the surface over the table and went back up.
-        if (v0[2] < 0.0 <= v1[2] and lo_z < contact_z + near and lo_z > TABLE.surface_z - near
+        # Table: the ball was at the surface over the table (a contact may straddle two samples,
+        # so the vertical velocity need not have turned yet).
+        if (v0[2] < 0.0 and lo_z < contact_z + near and lo_z > TABLE.surface_z - near
                 and self._over_table(p0, p1)):
             # Where it touched: extrapolate the incoming segment to the contact height.
             drop = p0[2] - lo_z + 1e-12
@@ -118,7 +120,9 @@ class ContactDetector:
         if racket0 is None and racket1 is None:
             # No robot information (scripted tests): any other contact is the racket.
             return RACKET_CONTACT, mid
-        return ROBOT_CONTACT, mid
+        if mid[1] < TABLE.robot_edge_y + 0.3:
+            return ROBOT_CONTACT, mid
+        return None, mid  # nothing is there to touch: not a contact
 
     @staticmethod
     def _over_table(p0, p1) -> bool:
@@ -153,10 +157,22 @@ class Outcome:
         }
 
 
+def merge_contacts(events: list[ContactEvent], window: float = 0.012) -> list[ContactEvent]:
+    """One event per contact: a contact that straddles samples shows as several events of the
+    same kind within a few milliseconds; keep the first."""
+    merged: list[ContactEvent] = []
+    for e in events:
+        if merged and merged[-1].kind == e.kind and e.t - merged[-1].t <= window:
+            continue
+        merged.append(e)
+    return merged
+
+
 def judge(events: list[ContactEvent], robot_touched_table: bool = False,
           config: RefereeConfig | None = None) -> Outcome:
     """Classify an episode from its contact events in time order (see the module docstring)."""
     config = config or RefereeConfig()
+    events = merge_contacts(events)
     faults: list[str] = []
     hit_index = next((i for i, e in enumerate(events) if e.kind == RACKET_CONTACT), None)
     before = events if hit_index is None else events[:hit_index]

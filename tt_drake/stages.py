@@ -57,6 +57,10 @@ class Quintic:
     def t_end(self) -> float:
         return self.t0 + self.duration
 
+    def cut(self, t: float) -> Quintic:
+        """The same polynomial ending at ``t`` (t0 < t)."""
+        return Quintic(self.t0, min(self.duration, t - self.t0), self.coeffs)
+
     def evaluate(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         s = min(max(t - self.t0, 0.0), self.duration)
         c = self.coeffs
@@ -100,8 +104,9 @@ class StagePlan:
         return self.segment_at(t).evaluate(t)
 
     def truncated(self, t: float) -> StagePlan:
-        """The part of the plan already under way at ``t`` (segments starting before ``t``)."""
-        return StagePlan([(s, q) for s, q in self.segments if q.t0 < t])
+        """The part of the plan executed before ``t``: segments that started earlier, the one under
+        way cut to end at ``t`` (to be followed by a re-plan from the state at ``t``)."""
+        return StagePlan([(s, q.cut(t)) for s, q in self.segments if q.t0 < t])
 
 
 @dataclass(frozen=True)

@@ -78,9 +78,14 @@ def test_replanning_from_the_current_desired_state_is_continuous():
     plan, _, _ = stroke(t_hit=0.8)
     now = 0.2
     state = plan.evaluate(now)
-    replanned, _, _ = stroke(now=now, t_hit=0.82, state=state)
+    replanned, q_hit, _ = stroke(now=now, t_hit=0.82, state=state)
     for before, after in zip(state, replanned.evaluate(now), strict=True):
         np.testing.assert_allclose(before, after, atol=1e-12)
+    # The executed part followed by the re-plan: the re-plan is in force from `now` on.
+    combined = type(plan)(plan.truncated(now).segments + replanned.segments)
+    np.testing.assert_allclose(combined.evaluate(0.1)[0], plan.evaluate(0.1)[0])
+    np.testing.assert_allclose(combined.evaluate(0.82)[0], q_hit, atol=1e-10)
+    assert np.all(jumps_at_boundaries(combined) < 1e-9)
 
 
 def test_too_little_time_skips_the_swing_back():

@@ -1,0 +1,211 @@
+"""The analytical player (the teacher): a physics-model planner and polynomial stroke stages.
+
+Per camera frame, while the ball comes toward the robot and the hitting stage has not begun, the
+:class:`StrokePlanner`
+
+1. predicts the ball's state where it crosses the virtual hitting plane, with the physical model
+   from the estimator's state (:class:`tt_drake.hitting_point.PhysicalPredictor`): the stimulus
+   (p_hit, v_hit, t_hit);
+2. chooses the outgoing velocity that lands the ball on the target, and the racket normal and
+   velocity that produce it (:mod:`tt_drake.racket_law`);
+3. solves the arm: the hitting configuration theta_hit that puts the racket centre at p_hit with
+   that normal, closest to a comfort posture, and theta_dot_hit that gives the racket velocity
+   (:class:`tt_drake.systems.hitting_ik.HittingIK`);
+4. re-plans the stages from the current desired state (:func:`tt_drake.stages.plan_stroke`).
+
+It stops re-planning once the hitting stage has begun (paper section III-A). The player only sees
+what the camera sees: its inputs are the estimator's outputs, never the true ball state.
+
+Ports of :class:`AnalyticalPlayer`: inputs ``estimated_state`` (6: p, v) and ``estimator_status``
+(2: valid, time of the estimate); outputs ``desired_state`` (14: q, q_dot) and
+``desired_acceleration`` (7) for the InverseDynamicsController, ``stage`` (1: index into
+:data:`tt_drake.stages.STAGES`) and ``stroke`` (the :class:`Stroke` planned, for datasets).
+The output ports evaluate the stored plan (a quintic per joint): O(1) work per integrator step.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+from tt_drake import wam_params as wp
+from tt_drake.constants import PLANES, TARGET
+from tt_drake.hitting_point import PhysicalPredictor
+from tt_drake.racket_law import FLIGHT_TIMES, aim_return, racket_for_return
+from tt_drake.stages import (
+    AWAITING,
+    HITTING,
+    STAGES,
+    JointLimits,
+    Quintic,
+    StagePlan,
+    StageTimes,
+    plan_stroke,
+)
+from tt_drake.systems.immutable import Immutable
+
+
+@dataclass(frozen=True)
+class Stroke:
+    """What a stroke was planned from and to: the stimulus, racket state and arm solution."""
+
+    p_hit: np.ndarray
+    v_hit: np.ndarray
+    t_hit: float
+    v_out: np.ndarray
+    racket_normal: np.ndarray
+    racket_velocity: np.ndarray
+    q_hit: np.ndarray
+    qd_hit: np.ndarray
+    ik_position_error: float
+    ik_angle_error: float
+    flight_time: float
+    replans: int = 1
+
+
+@dataclass(frozen=True)
+class PlannerConfig:
+    target_x: float = TARGET.x
+    target_y: float = TARGET.y
+    replan_position: float = 0.003  # m: a prediction this close to the last one changes nothing
+    replan_time: float = 0.002  # s
+    times: StageTimes = StageTimes()
+
+
+class StrokePlanner:
+    """Prediction -> aim -> racket state -> arm solution -> stage plan (module docstring)."""
+
+    def __init__(self, arm=None, config: PlannerConfig | None = None,
+                 predictor: PhysicalPredictor | None = None):
+        if arm is None:
+            from tt_drake.systems.hitting_ik import HittingIK
+
+            arm = HittingIK()
+        self.arm = arm
+        self.config = config or PlannerConfig()
+        self.predictor = predictor or PhysicalPredictor()
+        self.q_await = np.asarray(wp.AWAITING, dtype=float)
+        self.limits = JointLimits(np.asarray(wp.JOINT_LOWER, dtype=float),
+                                  np.asarray(wp.JOINT_UPPER, dtype=float),
+                                  np.asarray(wp.VELOCITY_LIMIT, dtype=float))
+
+    def awaiting_plan(self, t: float = 0.0) -> StagePlan:
+        zero = np.zeros(7)
+        return StagePlan([(AWAITING, Quintic.fit(t, 1.0, self.q_await, zero, zero,
+                                                  self.q_await, zero, zero))])
+
+    def predict(self, state6, t_state: float):
+        """Stimulus (p_hit, v_hit, t_hit absolute) from an estimate, or None."""
+        state6 = np.asarray(state6, dtype=float)
+        if state6[4] >= 0.0 or state6[1] <= PLANES.hitting_y:
+            return None  # not coming toward the robot, or already past the plane
+        out = self.predictor.predict(state6)
+        if out is None:
+            return None
+        return out[0:3], out[3:6], t_state + float(out[6])
+
+    def stroke(self, p_hit, v_hit, t_hit, previous: Stroke | None) -> Stroke | None:
+        """Aim, racket and arm for a stimulus; None if the arm cannot reach it."""
+        cfg = self.config
+        times = (previous.flight_time,) if previous is not None else FLIGHT_TIMES
+        aim = aim_return(p_hit, v_hit, (cfg.target_x, cfg.target_y), flight_times=times)
+        racket = racket_for_return(v_hit, aim.v_out)
+        seed = previous.q_hit if previous is not None else None
+        ik = self.arm.solve(p_hit, racket.normal, q_seed=seed)
+        if not ik.success:
+            return None
+        qd_hit = self.arm.joint_velocities(ik.q, racket.velocity)
+        replans = previous.replans + 1 if previous is not None else 1
+        return Stroke(np.asarray(p_hit), np.asarray(v_hit), float(t_hit), aim.v_out,
+                      racket.normal, racket.velocity, np.asarray(ik.q), np.asarray(qd_hit),
+                      ik.position_error, ik.angle_error, aim.flight_time, replans)
+
+    def needs_replan(self, previous: Stroke | None, p_hit, t_hit) -> bool:
+        if previous is None:
+            return True
+        return (float(np.linalg.norm(np.asarray(p_hit) - previous.p_hit))
+                > self.config.replan_position
+                or abs(t_hit - previous.t_hit) > self.config.replan_time)
+
+    def plan(self, now: float, current: StagePlan, stroke: Stroke) -> StagePlan:
+        kept = current.truncated(now)
+        plan = plan_stroke(now, current.evaluate(now), stroke.t_hit, stroke.q_hit, stroke.qd_hit,
+                           self.q_await, self.limits, self.config.times)
+        return StagePlan(kept.segments + plan.segments)
+
+
+class _PlayerState(Immutable):
+    __slots__ = ("plan", "stroke", "committed")
+
+    def __init__(self, plan: StagePlan, stroke: Stroke | None = None, committed: bool = False):
+        self.plan, self.stroke, self.committed = plan, stroke, committed
+
+
+class AnalyticalPlayer(LeafSystem):
+    def __init__(self, planner: StrokePlanner | None = None, rate: float = 60.0):
+        super().__init__()
+        self.planner = planner or StrokePlanner()
+        self._estimate = self.DeclareVectorInputPort("estimated_state", 6)
+        self._status = self.DeclareVectorInputPort("estimator_status", 2)
+        self._state_index = self.DeclareAbstractState(
+            AbstractValue.Make(_PlayerState(self.planner.awaiting_plan())))
+        period = 1.0 / rate
+        # After the estimator's update (offset period / 3) of the same frame.
+        self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.5 * period, self._update)
+        self.DeclareForcedUnrestrictedUpdateEvent(self._update)
+        self.DeclareVectorOutputPort("desired_state", BasicVector(14), self._calc_state)
+        self.DeclareVectorOutputPort("desired_acceleration", BasicVector(7), self._calc_accel)
+        self.DeclareVectorOutputPort("stage", BasicVector(1), self._calc_stage)
+        self.DeclareAbstractOutputPort("stroke", lambda: AbstractValue.Make(object()),
+                                       self._calc_stroke)
+
+    def player_state(self, context) -> _PlayerState:
+        return context.get_abstract_state(self._state_index).get_value()
+
+    def _update(self, context, state):
+        old = self.player_state(context)
+        now = context.get_time()
+        if old.committed:
+            return
+        plan = old.plan
+        hit_segment = next((seg for stage, seg in plan.segments if stage == HITTING), None)
+        if hit_segment is not None and now >= hit_segment.t0:
+            new = _PlayerState(plan, old.stroke, committed=True)
+            state.get_mutable_abstract_state(self._state_index).set_value(new)
+            return
+        status = self._status.Eval(context)
+        if status[0] < 0.5:
+            return
+        prediction = self.planner.predict(self._estimate.Eval(context), float(status[1]))
+        if prediction is None:
+            return
+        p_hit, v_hit, t_hit = prediction
+        if t_hit - now < 0.05 or not self.planner.needs_replan(old.stroke, p_hit, t_hit):
+            return
+        stroke = self.planner.stroke(p_hit, v_hit, t_hit, old.stroke)
+        if stroke is None:
+            return
+        new_plan = self.planner.plan(now, plan, stroke)
+        state.get_mutable_abstract_state(self._state_index).set_value(
+            _PlayerState(new_plan, stroke))
+
+    def _calc_state(self, context, output):
+        q, qd, _ = self.player_state(context).plan.evaluate(context.get_time())
+        out = output.get_mutable_value()
+        out[:7] = q
+        out[7:] = qd
+
+    def _calc_accel(self, context, output):
+        output.get_mutable_value()[:] = self.player_state(context).plan.evaluate(
+            context.get_time())[2]
+
+    def _calc_stage(self, context, output):
+        stage = self.player_state(context).plan.stage_at(context.get_time())
+        output.get_mutable_value()[0] = STAGES.index(stage)
+
+    def _calc_stroke(self, context, output):
+        output.set_value(self.player_state(context).stroke)
+
+
+
