@@ -55,7 +55,7 @@ import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.multibody.inverse_kinematics import InverseKinematics
 from pydrake.multibody.tree import JacobianWrtVariable
-from pydrake.solvers import SnoptSolver
+from pydrake.solvers import SnoptSolver, SolverOptions
 
 from tt_drake import wam_params as wp
 from tt_drake.systems.wam import RACKET_CENTER_FRAME, make_control_plant
@@ -87,6 +87,10 @@ ANGLE_TOLERANCE = 1e-3  # rad, acceptance of the racket normal
 # feasibility tolerance (~1e-6) cannot push an answer over them.
 _SOLVER_POSITION_BOUND = 1e-5  # m, per axis
 _SOLVER_ANGLE_BOUND = 5e-4  # rad
+# SNOPT's major-iteration cap per start. Successful solves need far fewer; the cap bounds the time a
+# start spends creeping along an infeasible boundary (in the reachability sweep it cut the worst
+# request from ~240 ms to ~40 ms without losing any of the 431 reachable requests; 50 lost three).
+SNOPT_MAJOR_ITERATIONS = 100
 DEFAULT_NULL_GAIN = 1.0  # 1/s, k in the null-space term of joint_velocities
 # Spare starting postures for the IK after the comfort and AWAITING starts fail: four fixed draws
 # from the middle half of each joint's range (seeded, so every run tries the same ones). SNOPT
@@ -177,6 +181,8 @@ class HittingIK:
         self._solver = SnoptSolver()
         if not self._solver.available():
             raise RuntimeError("SNOPT is not available in this pydrake build")
+        self._options = SolverOptions()
+        self._options.SetOption(SnoptSolver.id(), "Major iterations limit", SNOPT_MAJOR_ITERATIONS)
 
     # ----------------------------------------------------------------------------- kinematics
     def _set(self, q) -> np.ndarray:
@@ -227,7 +233,7 @@ class HittingIK:
         prog = ik.get_mutable_prog()
         prog.AddBoundingBoxConstraint(self.lower, self.upper, q)
         prog.AddQuadraticErrorCost(np.diag(self.weights), self.comfort, q)
-        result = self._solver.Solve(prog, seed, None)
+        result = self._solver.Solve(prog, seed, self._options)
         return np.asarray(result.GetSolution(q), dtype=float)
 
     def _multistart(self, p_hit, normal, seeds) -> tuple[tuple, int]:
