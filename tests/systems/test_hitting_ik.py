@@ -8,7 +8,9 @@ against central finite differences of the DH pose.
 
 from __future__ import annotations
 
+import importlib.util
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -202,3 +204,20 @@ def test_racket_pose_matches_dh(ik):
         q = rng.uniform(LOWER, UPPER)
         np.testing.assert_allclose(ik.racket_pose(q).GetAsMatrix4(),
                                    wp.racket_center_in_world(q), atol=1e-12)
+
+
+def test_reachability_example_writes_its_figure(tmp_path, capsys):
+    """docs/examples/hitting_ik_reach.py: only the low forehand corner is unreachable."""
+    path = Path(__file__).resolve().parents[2] / "docs" / "examples" / "hitting_ik_reach.py"
+    spec = importlib.util.spec_from_file_location("hitting_ik_reach", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    out_png = tmp_path / "reach.png"
+    out = module.main(["--out", str(out_png)])
+    assert out_png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out_png.stat().st_size < 150_000
+    xs, zs = module.grid()
+    for result in out.values():
+        for iz, ix in zip(*np.nonzero(result["success"] == 0), strict=True):
+            assert _in_unreachable_corner(xs[ix], zs[iz])
+    assert out["nominal"]["success"].sum() >= 87
+    assert "| nominal |" in capsys.readouterr().out
