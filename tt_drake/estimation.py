@@ -2,7 +2,8 @@
 
 State ``x = (p, v)`` (6, world frame; spin is taken as zero, as the ``default`` serves have none).
 The dynamics are the numpy :class:`~tt_drake.ball_model.CompliantBounceBallModel` (gravity, drag,
-Magnus and the Hunt-Crossley table bounce, calibrated to the Drake world), which is non-smooth at the bounce, so the filter is
+Magnus and the Hunt-Crossley table bounce, calibrated to the Drake world), which is non-smooth at
+the bounce, so the filter is
 "model-based":
 
 Prediction over ``dt`` (frame to frame)::
