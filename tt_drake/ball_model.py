@@ -211,7 +211,7 @@ class BallModel:
             new_p, new_v = self.flight_step(pos, vel, w, h)
             # Table impact inside this step: locate it and bounce.
             if new_p[2] < contact_z <= pos[2] and new_v[2] < 0.0:
-                th = self._locate(pos, vel, w, h, lambda q, _v: q[2] - contact_z)
+                th = self._locate(pos, vel, w, h, lambda _s, q, _v: q[2] - contact_z)
                 hp, hv = self.flight_step(pos, vel, w, th)
                 if self.over_table(hp[0], hp[1]):
                     # Check the stop event before the impact first.
@@ -229,19 +229,19 @@ class BallModel:
         return None
 
     def _locate(self, pos, vel, w, h, g) -> float:
-        """Bisection for the sub-step at which g(pos, vel) crosses zero within [0, h]."""
+        """Bisection for the sub-step s at which g(s, pos, vel) crosses zero within [0, h]."""
         lo, hi = 0.0, h
         for _ in range(30):
             mid = 0.5 * (lo + hi)
             mp, mv = self.flight_step(pos, vel, w, mid)
-            if g(mp, mv) > 0.0:
+            if g(mid, mp, mv) > 0.0:
                 lo = mid
             else:
                 hi = mid
         return 0.5 * (lo + hi)
 
     def _finish(self, t, pos, vel, w, h, stop, bounces) -> PlaneCrossing:
-        th = self._locate(pos, vel, w, h, lambda q, v: stop(t, q, v))
+        th = self._locate(pos, vel, w, h, lambda s, q, v: stop(t + s, q, v))
         fp, fv = self.flight_step(pos, vel, w, th)
         return PlaneCrossing(t + th, np.array(fp), np.array(fv), np.array(w), tuple(bounces))
 

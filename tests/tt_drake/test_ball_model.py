@@ -96,3 +96,14 @@ def test_bad_state_is_rejected():
         model.predict_plane(np.zeros(4), 0.0)
     with pytest.raises(ValueError, match="NaN"):
         model.predict_plane(np.array([0, 0, 1, math.nan, 0, 0]), 0.0)
+
+
+def test_predict_time_lands_exactly_on_the_requested_time():
+    # Times between integrator steps must be hit exactly, not rounded to the next step.
+    model = BallModel(dt=0.01)
+    state = np.array([0.0, 1.0, 1.5, 0.3, -4.0, 0.5, 0, 0, 0])
+    for t in (0.0123, 0.2071, 0.333):
+        out = model.predict_time(state, t)
+        assert out.t == pytest.approx(t, abs=1e-9)
+        fine = BallModel(dt=1e-4).predict_time(state, t)
+        np.testing.assert_allclose(out.position, fine.position, atol=1e-7)
