@@ -48,6 +48,8 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--html", default=None, help="write a self-contained Meshcat recording")
     serve.add_argument("--json", default=None, help="write the summary and one record per serve")
     serve.add_argument("--quiet", action="store_true", help="no progress bar")
+    serve.add_argument("--workers", type=_positive_int, default=1,
+                       help="parallel worker processes (not with --html; default 1)")
     _add_scenario_options(serve)
 
     bench = sub.add_parser("bench", help="time serve episodes against a C++ reference diagram")
@@ -96,7 +98,7 @@ def _serve(args) -> None:
     _check_player(args.player)
     scenario = _scenario(args)
     data = run_serves(scenario, args.player, args.serves, args.seed, args.html, args.json,
-                      progress=not args.quiet)
+                      progress=not args.quiet, workers=args.workers)
     print(format_summary(data))
     for path in (args.json, args.html):
         if path:

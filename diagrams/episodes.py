@@ -22,6 +22,7 @@ import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, VectorLogSink
 
+from tt_drake.arm_metrics import arm_metrics
 from tt_drake.diagrams.scenario import Scenario
 from tt_drake.referee_rules import Outcome
 from tt_drake.systems.aerodynamics import Aerodynamics
@@ -88,6 +89,7 @@ class EpisodeResult:
     outcome: Outcome
     wall_time: float
     ball_path: np.ndarray | None = field(default=None, repr=False)
+    arm: dict | None = None
 
     def as_dict(self) -> dict:
         return {
@@ -97,6 +99,7 @@ class EpisodeResult:
             "duration": round(self.duration, 4),
             "wall_time": round(self.wall_time, 4),
             **self.outcome.as_dict(),
+            **({"arm": self.arm} if self.arm is not None else {}),
         }
 
 
@@ -130,6 +133,15 @@ class ServeDiagram:
             c = scenario.controller
             self.controller = add_wam_controller(builder, plant, world.robot, c.kp, c.ki, c.kd)
             self.seeded += PLAYERS[player](builder, world, self.controller, scenario)
+            # Arm state and commanded torques at the referee's rate (aligned events: no extra
+            # integrator stops), for joint-limit and saturation metrics.
+            period = 1.0 / scenario.referee_rate
+            self.arm_logger = builder.AddNamedSystem("arm_logger", VectorLogSink(14, period))
+            builder.Connect(plant.get_state_output_port(world.robot),
+                            self.arm_logger.get_input_port())
+            self.torque_logger = builder.AddNamedSystem("torque_logger", VectorLogSink(7, period))
+            builder.Connect(self.controller.GetOutputPort("actuation"),
+                            self.torque_logger.get_input_port())
         self.ball_logger = None
         if log_ball:
             self.ball_logger = builder.AddNamedSystem("ball_logger", VectorLogSink(13, 1.0 / 120))
@@ -184,9 +196,8 @@ class ServeDiagram:
         serve = self.launcher.serve(self.launcher.GetMyContextFromRoot(self.context))
         plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
         set_ball_state(self.world, plant_context, serve.launch_state)
-        if self.ball_logger is not None:
-            self.ball_logger.GetMyMutableContextFromRoot(self.context)  # log is per context
-            self.ball_logger.FindMutableLog(self.context).Clear()
+        for logger in self._loggers():
+            logger.FindMutableLog(self.context).Clear()
         max_duration = float(serve.crossing.t + self.scenario.after_crossing)
         self.simulator.Initialize()
         self.simulator.AdvanceTo(start_time + max_duration)  # the referee may end it earlier
@@ -196,9 +207,20 @@ class ServeDiagram:
         path = None
         if self.ball_logger is not None:
             path = self.ball_logger.FindLog(self.context).data()[4:7].T.copy()
+        arm = None
+        if self.controller is not None:
+            x = self.arm_logger.FindLog(self.context).data().T
+            tau = self.torque_logger.FindLog(self.context).data().T
+            arm = arm_metrics(x[:, :7], x[:, 7:], tau)
         crossing = np.r_[serve.crossing.position, serve.crossing.velocity, serve.crossing.t]
         return EpisodeResult(seed, list(serve.launch_state), list(crossing), duration, outcome,
-                             time.perf_counter() - wall, path)
+                             time.perf_counter() - wall, path, arm)
+
+    def _loggers(self) -> list:
+        loggers = [self.ball_logger] if self.ball_logger is not None else []
+        if self.controller is not None:
+            loggers += [self.arm_logger, self.torque_logger]
+        return loggers
 
 
 def episode_seed(base_seed: int, index: int) -> int:
@@ -209,10 +231,17 @@ def episode_seed(base_seed: int, index: int) -> int:
 
 def summarize(results: list[EpisodeResult]) -> dict:
     n = len(results)
-    return {
+    summary = {
         "serves": n,
         "hit_rate": sum(r.outcome.hit for r in results) / n if n else 0.0,
         "return_rate": sum(r.outcome.returned for r in results) / n if n else 0.0,
         "target_rate": sum(r.outcome.on_target for r in results) / n if n else 0.0,
         "mean_reward": sum(r.outcome.reward for r in results) / n if n else 0.0,
     }
+    arms = [r.arm for r in results if r.arm is not None]
+    if arms:
+        summary["joint_limit_violations"] = sum(a["joint_limit_excess"] > 0 for a in arms)
+        summary["max_joint_speed"] = max(a["max_joint_speed"] for a in arms)
+        summary["episodes_with_saturation"] = sum(a["saturated_fraction"] > 0 for a in arms)
+        summary["robot_table_contacts"] = sum("robot_table" in r.outcome.faults for r in results)
+    return summary

@@ -10,11 +10,16 @@ from tt_drake.outputs import check_writable, write_json_atomic, write_text_atomi
 
 
 def run_serves(scenario: Scenario, player: str, serves: int, seed: int, html: str | None = None,
-               json_path: str | None = None, progress: bool = True) -> dict:
-    """Run ``serves`` episodes; episode i uses ``episode_seed(seed, i)``. Returns the JSON dict."""
+               json_path: str | None = None, progress: bool = True, workers: int = 1) -> dict:
+    """Run ``serves`` episodes; episode i uses ``episode_seed(seed, i)``. Returns the JSON dict.
+
+    With ``workers`` > 1 the episodes run in that many processes (not with ``html``: the
+    recording lives in this process's Meshcat)."""
     for path in (html, json_path):
         if path:
             check_writable(path)
+    if not html and workers > 1:
+        return _run_parallel(scenario, player, serves, seed, json_path, progress, workers)
     meshcat = None
     if html:
         from tt_drake.diagrams.recording import make_meshcat, mark_target
@@ -38,16 +43,37 @@ def run_serves(scenario: Scenario, player: str, serves: int, seed: int, html: st
             draw_episode(meshcat, i, result)
             clock += result.duration
         bar.set_postfix(returned=f"{summarize(results)['return_rate']:.0%}")
-    summary = summarize(results)
-    data = {
-        "scenario": scenario.name, "player": player, "seed": seed,
-        "distribution": scenario.launcher.distribution,
-        "summary": summary, "episodes": [r.as_dict() for r in results],
-    }
+    data = _report(scenario, player, seed, results)
     if meshcat is not None:
         diagram.visualizer.StopRecording()
         diagram.visualizer.PublishRecording()
         write_text_atomic(html, meshcat.StaticHtml())
+    if json_path:
+        write_json_atomic(json_path, data)
+    return data
+
+
+def _report(scenario: Scenario, player: str, seed: int, results: list) -> dict:
+    return {
+        "scenario": scenario.name, "player": player, "seed": seed,
+        "distribution": scenario.launcher.distribution,
+        "summary": summarize(results), "episodes": [r.as_dict() for r in results],
+    }
+
+
+def _run_parallel(scenario, player, serves, seed, json_path, progress, workers) -> dict:
+    from tt_drake.diagrams.parallel import run_episodes
+
+    seeds = [episode_seed(seed, i) for i in range(serves)]
+    results = []
+    bar = tqdm(total=serves, desc=f"serving ({player}, {workers} workers)", unit="serve",
+               file=sys.stderr, disable=not progress)
+    for result in run_episodes(scenario, player, seeds, workers):
+        results.append(result)
+        bar.update()
+        bar.set_postfix(returned=f"{summarize(results)['return_rate']:.0%}")
+    bar.close()
+    data = _report(scenario, player, seed, results)
     if json_path:
         write_json_atomic(json_path, data)
     return data

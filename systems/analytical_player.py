@@ -36,6 +36,7 @@ from tt_drake.racket_law import FLIGHT_TIMES, aim_return, racket_for_return
 from tt_drake.stages import (
     AWAITING,
     HITTING,
+    PREPARATION,
     STAGES,
     JointLimits,
     Quintic,
@@ -128,11 +129,14 @@ class StrokePlanner:
                 > self.config.replan_position
                 or abs(t_hit - previous.t_hit) > self.config.replan_time)
 
-    def plan(self, now: float, current: StagePlan, stroke: Stroke) -> StagePlan:
-        kept = current.truncated(now)
+    def plan(self, now: float, current: StagePlan, stroke: Stroke) -> StagePlan | None:
+        """The current plan up to ``now`` followed by the stroke; None to keep waiting."""
+        preparing = current.stage_at(now) == PREPARATION
         plan = plan_stroke(now, current.evaluate(now), stroke.t_hit, stroke.q_hit, stroke.qd_hit,
-                           self.q_await, self.limits, self.config.times)
-        return StagePlan(kept.segments + plan.segments)
+                           self.q_await, self.limits, self.config.times, preparing)
+        if plan is None:
+            return None
+        return StagePlan(current.truncated(now).segments + plan.segments)
 
 
 class _PlayerState(Immutable):
@@ -188,7 +192,7 @@ class AnalyticalPlayer(LeafSystem):
             return
         new_plan = self.planner.plan(now, plan, stroke)
         state.get_mutable_abstract_state(self._state_index).set_value(
-            _PlayerState(new_plan, stroke))
+            _PlayerState(plan if new_plan is None else new_plan, stroke))
 
     def _calc_state(self, context, output):
         q, qd, _ = self.player_state(context).plan.evaluate(context.get_time())

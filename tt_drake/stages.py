@@ -116,7 +116,8 @@ class StageTimes:
     hitting: float = 0.40  # the hitting stage: from rest at the preparation posture to the hit
     follow_through: float = 0.30
     return_to_awaiting: float = 0.80
-    min_preparation: float = 0.10  # shorter than this and the swing-back is skipped
+    min_preparation: float = 0.25  # a swing-back from rest needs at least this long (s)
+    min_replan: float = 0.05  # an ongoing swing-back may be re-planned until this close to its end
     min_follow_through: float = 0.10
 
 
@@ -132,7 +133,8 @@ class JointLimits:
 
 
 def plan_stroke(now: float, state: tuple, t_hit: float, q_hit, qd_hit, q_await,
-                limits: JointLimits, times: StageTimes = StageTimes()) -> StagePlan:
+                limits: JointLimits, times: StageTimes = StageTimes(),
+                preparing: bool = False) -> StagePlan | None:
     """The whole stroke from the current desired ``state`` = (q, q_dot, q_ddot) at ``now``:
     preparation -> hitting (arriving at (q_hit, qd_hit) at ``t_hit``) -> follow-through ->
     back to ``q_await``.
@@ -140,20 +142,28 @@ def plan_stroke(now: float, state: tuple, t_hit: float, q_hit, qd_hit, q_await,
     Preparation posture: q_prep = q_hit - (T_hit / 2) qd_hit (clipped to the limits), the
     swing-back from which a rest-to-rest-like quintic reaches qd_hit in T_hit. Follow-through:
     q_hit + (T_ft / 2) qd_hit reached at rest, a quintic without overshoot; T_ft is shortened
-    (to no less than ``min_follow_through``) so that every joint stops inside its limits. If less
-    than ``min_preparation`` remains before the hitting stage would start, the hitting segment
-    starts now from ``state``.
+    (to no less than ``min_follow_through``) so that every joint stops inside its limits.
+
+    Timing: the hitting stage starts at t_hit - T_hit. A swing-back from rest starts only with at
+    least ``min_preparation`` to go before then (short swings demand accelerations the arm's
+    torques cannot give); an ongoing one (``preparing``) is re-planned until ``min_replan`` before
+    its end. Otherwise, at rest, the player waits (returns None: keep the current plan and
+    re-plan at the next prediction) until the hitting stage must start; once it must, or if
+    t_hit is closer than T_hit, the hitting segment starts now from ``state``.
     """
     q, qd, qdd = (np.asarray(x, dtype=float) for x in state)
     q_hit, qd_hit = np.asarray(q_hit, dtype=float), np.asarray(qd_hit, dtype=float)
     zero = np.zeros_like(q)
     segments: list[tuple[str, Quintic]] = []
     t_start_hit = t_hit - times.hitting
-    if t_start_hit - now >= times.min_preparation:
+    lead = times.min_replan if preparing else times.min_preparation
+    if t_start_hit - now >= lead:
         q_prep = limits.clip(q_hit - 0.5 * times.hitting * qd_hit)
         prep = Quintic.fit(now, t_start_hit - now, q, qd, qdd, q_prep, zero, zero)
         segments.append((PREPARATION, prep))
         start = (q_prep, zero, zero, t_start_hit)
+    elif t_start_hit > now and not preparing:
+        return None  # at rest: wait for the hitting stage's start, re-planning meanwhile
     else:
         if t_hit - now <= 1e-3:
             raise ValueError(f"no time left to hit: t_hit {t_hit:.3f} s, now {now:.3f} s")

@@ -49,11 +49,12 @@ def jumps_at_boundaries(plan):
     return worst
 
 
-def stroke(now=0.0, t_hit=0.8, state=None):
+def stroke(now=0.0, t_hit=0.8, state=None, preparing=False):
     state = state or (Q_AWAIT, np.zeros(7), np.zeros(7))
     q_hit = Q_AWAIT + RNG.uniform(-0.3, 0.3, 7)
     qd_hit = RNG.uniform(-3, 3, 7)
-    return plan_stroke(now, state, t_hit, q_hit, qd_hit, Q_AWAIT, LIMITS), q_hit, qd_hit
+    plan = plan_stroke(now, state, t_hit, q_hit, qd_hit, Q_AWAIT, LIMITS, preparing=preparing)
+    return plan, q_hit, qd_hit
 
 
 def test_stroke_has_the_four_stages_in_order_and_arrives_at_the_hit():
@@ -69,8 +70,8 @@ def test_stroke_has_the_four_stages_in_order_and_arrives_at_the_hit():
 
 
 def test_stage_boundaries_are_continuous_in_position_velocity_and_acceleration():
-    for _ in range(20):
-        plan, _, _ = stroke(t_hit=RNG.uniform(0.3, 1.0))
+    for t_hit in np.r_[RNG.uniform(0.2, 0.4, 10), RNG.uniform(0.65, 1.0, 10)]:
+        plan, _, _ = stroke(t_hit=t_hit)  # hit at once, or swing back first
         assert np.all(jumps_at_boundaries(plan) < 1e-9)
 
 
@@ -78,7 +79,7 @@ def test_replanning_from_the_current_desired_state_is_continuous():
     plan, _, _ = stroke(t_hit=0.8)
     now = 0.2
     state = plan.evaluate(now)
-    replanned, q_hit, _ = stroke(now=now, t_hit=0.82, state=state)
+    replanned, q_hit, _ = stroke(now=now, t_hit=0.82, state=state, preparing=True)
     for before, after in zip(state, replanned.evaluate(now), strict=True):
         np.testing.assert_allclose(before, after, atol=1e-12)
     # The executed part followed by the re-plan: the re-plan is in force from `now` on.
@@ -94,6 +95,16 @@ def test_too_little_time_skips_the_swing_back():
     np.testing.assert_allclose(plan.evaluate(0.75)[0], q_hit, atol=1e-10)
     with pytest.raises(ValueError, match="no time left"):
         stroke(now=0.75, t_hit=0.75)
+
+
+def test_at_rest_with_too_little_time_for_a_swing_back_the_player_waits():
+    t = StageTimes()
+    t_hit = 0.5 * t.min_preparation + t.hitting  # swing-back would have half the time it needs
+    rest = (Q_AWAIT, np.zeros(7), np.zeros(7))
+    assert plan_stroke(0.0, rest, t_hit, Q_AWAIT, np.ones(7), Q_AWAIT, LIMITS) is None
+    # ...but an ongoing swing-back is re-planned with that little time left
+    plan = plan_stroke(0.0, rest, t_hit, Q_AWAIT, np.ones(7), Q_AWAIT, LIMITS, preparing=True)
+    assert plan.segments[0][0] == PREPARATION
 
 
 def test_a_fast_hit_near_a_limit_stops_inside_it():
