@@ -4,16 +4,21 @@ Per camera frame, while the ball comes toward the robot and the hitting stage ha
 :class:`StrokePlanner`
 
 1. predicts the ball's state where it crosses the virtual hitting plane, with the physical model
-   from the estimator's state (:class:`tt_drake.hitting_point.PhysicalPredictor`): the stimulus
-   (p_hit, v_hit, t_hit);
+   (:class:`tt_drake.ball_model.CompliantBounceBallModel`) from the estimator's state: the
+   stimulus (p_hit, v_hit, t_hit), and the spin the table bounce gives the ball (the estimator
+   does not observe spin: once the ball has bounced, the spin predicted before is kept);
 2. chooses the outgoing velocity that lands the ball on the target, and the racket normal and
    velocity that produce it (:mod:`tt_drake.racket_law`);
-3. solves the arm: the hitting configuration theta_hit that puts the racket centre at p_hit with
-   that normal, closest to a comfort posture, and theta_dot_hit that gives the racket velocity
-   (:class:`tt_drake.systems.hitting_ik.HittingIK`);
+3. solves the arm: the hitting configuration theta_hit that puts the racket centre at
+   p_hit - (R + t/2) n with that normal n (so that the ball's centre, at p_hit, touches the blade
+   face of thickness t just then), closest to a comfort posture, and theta_dot_hit that gives the
+   racket velocity (:class:`tt_drake.systems.hitting_ik.HittingIK`);
 4. re-plans the stages from the current desired state (:func:`tt_drake.stages.plan_stroke`).
 
-It stops re-planning once the hitting stage has begun (paper section III-A). The player only sees
+It stops re-planning once the hitting stage has begun (paper section III-A). A re-plan is
+dropped, keeping the previous one, when the arm solution jumps to another configuration
+(> ``max_branch_change`` on a joint) or the new plan needs more than the joints' acceleration
+limits. The player only sees
 what the camera sees: its inputs are the estimator's outputs, never the true ball state.
 
 Ports of :class:`AnalyticalPlayer`: inputs ``estimated_state`` (6: p, v) and ``estimator_status``
@@ -30,8 +35,8 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from tt_drake import wam_params as wp
-from tt_drake.constants import PLANES, TARGET
-from tt_drake.hitting_point import PhysicalPredictor
+from tt_drake.ball_model import BallModel, CompliantBounceBallModel
+from tt_drake.constants import BALL, PLANES, TARGET
 from tt_drake.racket_law import FLIGHT_TIMES, aim_return, racket_for_return
 from tt_drake.stages import (
     AWAITING,
@@ -42,6 +47,7 @@ from tt_drake.stages import (
     Quintic,
     StagePlan,
     StageTimes,
+    plan_extremes,
     plan_stroke,
 )
 from tt_drake.systems.immutable import Immutable
@@ -54,6 +60,7 @@ class Stroke:
     p_hit: np.ndarray
     v_hit: np.ndarray
     t_hit: float
+    spin: np.ndarray
     v_out: np.ndarray
     racket_normal: np.ndarray
     racket_velocity: np.ndarray
@@ -71,6 +78,7 @@ class PlannerConfig:
     target_y: float = TARGET.y
     replan_position: float = 0.003  # m: a prediction this close to the last one changes nothing
     replan_time: float = 0.002  # s
+    max_branch_change: float = 0.5  # rad: a re-plan moving theta_hit further is another IK branch
     times: StageTimes = StageTimes()
 
 
@@ -78,15 +86,16 @@ class StrokePlanner:
     """Prediction -> aim -> racket state -> arm solution -> stage plan (module docstring)."""
 
     def __init__(self, arm=None, config: PlannerConfig | None = None,
-                 predictor: PhysicalPredictor | None = None):
+                 model: BallModel | None = None):
         if arm is None:
             from tt_drake.systems.hitting_ik import HittingIK
 
             arm = HittingIK()
         self.arm = arm
         self.config = config or PlannerConfig()
-        self.predictor = predictor or PhysicalPredictor()
+        self.model = model or CompliantBounceBallModel(dt=2e-3)
         self.q_await = np.asarray(wp.AWAITING, dtype=float)
+        self.acceleration_limit = np.asarray(wp.ACCELERATION_LIMIT, dtype=float)
         self.limits = JointLimits(np.asarray(wp.JOINT_LOWER, dtype=float),
                                   np.asarray(wp.JOINT_UPPER, dtype=float),
                                   np.asarray(wp.VELOCITY_LIMIT, dtype=float))
@@ -96,29 +105,42 @@ class StrokePlanner:
         return StagePlan([(AWAITING, Quintic.fit(t, 1.0, self.q_await, zero, zero,
                                                   self.q_await, zero, zero))])
 
-    def predict(self, state6, t_state: float):
-        """Stimulus (p_hit, v_hit, t_hit absolute) from an estimate, or None."""
+    def predict(self, state6, t_state: float, previous: Stroke | None = None):
+        """Stimulus (p_hit, v_hit, t_hit absolute) and the ball's spin there, or None.
+
+        An estimate taken after the bounce starts the model with the spin predicted before it."""
         state6 = np.asarray(state6, dtype=float)
         if state6[4] >= 0.0 or state6[1] <= PLANES.hitting_y:
             return None  # not coming toward the robot, or already past the plane
-        out = self.predictor.predict(state6)
-        if out is None:
+        spin = np.zeros(3)
+        hit = self.model.predict_plane(np.r_[state6, spin], PLANES.hitting_y)
+        if hit is not None and not hit.bounces and previous is not None:
+            hit = self.model.predict_plane(np.r_[state6, previous.spin], PLANES.hitting_y)
+        if hit is None:
             return None
-        return out[0:3], out[3:6], t_state + float(out[6])
+        return hit.position, hit.velocity, t_state + hit.t, hit.spin
 
-    def stroke(self, p_hit, v_hit, t_hit, previous: Stroke | None) -> Stroke | None:
+    def stroke(self, p_hit, v_hit, t_hit, spin, previous: Stroke | None) -> Stroke | None:
         """Aim, racket and arm for a stimulus; None if the arm cannot reach it."""
         cfg = self.config
         times = (previous.flight_time,) if previous is not None else FLIGHT_TIMES
-        aim = aim_return(p_hit, v_hit, (cfg.target_x, cfg.target_y), flight_times=times)
-        racket = racket_for_return(v_hit, aim.v_out)
+        aim = aim_return(p_hit, v_hit, (cfg.target_x, cfg.target_y), flight_times=times,
+                         spin=spin)
+        racket = racket_for_return(v_hit, aim.v_out, spin)
         seed = previous.q_hit if previous is not None else None
-        ik = self.arm.solve(p_hit, racket.normal, q_seed=seed)
+        # The ball touches the blade face when its centre is R + t/2 in front of the blade centre.
+        contact_offset = BALL.radius + 0.5 * wp.RACKET.blade_thickness
+        ik = self.arm.solve(np.asarray(p_hit) - contact_offset * racket.normal, racket.normal,
+                            q_seed=seed)
         if not ik.success:
             return None
+        if previous is not None and (np.abs(ik.q - previous.q_hit).max()
+                                     > self.config.max_branch_change):
+            return None  # the solver jumped to another arm configuration: keep the last stroke
         qd_hit = self.arm.joint_velocities(ik.q, racket.velocity)
         replans = previous.replans + 1 if previous is not None else 1
-        return Stroke(np.asarray(p_hit), np.asarray(v_hit), float(t_hit), aim.v_out,
+        return Stroke(np.asarray(p_hit), np.asarray(v_hit), float(t_hit), np.asarray(spin),
+                      aim.v_out,
                       racket.normal, racket.velocity, np.asarray(ik.q), np.asarray(qd_hit),
                       ik.position_error, ik.angle_error, aim.flight_time, replans)
 
@@ -136,6 +158,8 @@ class StrokePlanner:
                            self.q_await, self.limits, self.config.times, preparing)
         if plan is None:
             return None
+        if np.any(plan_extremes(plan, rate=100.0)["qdd_max"] > self.acceleration_limit):
+            return None  # not feasible for the arm: keep the current plan
         return StagePlan(current.truncated(now).segments + plan.segments)
 
 
@@ -181,13 +205,14 @@ class AnalyticalPlayer(LeafSystem):
         status = self._status.Eval(context)
         if status[0] < 0.5:
             return
-        prediction = self.planner.predict(self._estimate.Eval(context), float(status[1]))
+        prediction = self.planner.predict(self._estimate.Eval(context), float(status[1]),
+                                          old.stroke)
         if prediction is None:
             return
-        p_hit, v_hit, t_hit = prediction
+        p_hit, v_hit, t_hit, spin = prediction
         if t_hit - now < 0.05 or not self.planner.needs_replan(old.stroke, p_hit, t_hit):
             return
-        stroke = self.planner.stroke(p_hit, v_hit, t_hit, old.stroke)
+        stroke = self.planner.stroke(p_hit, v_hit, t_hit, spin, old.stroke)
         if stroke is None:
             return
         new_plan = self.planner.plan(now, plan, stroke)

@@ -9,11 +9,14 @@ Two steps, as in the teacher of the paper (its ref. [24]; equations.md, "racket 
    with a margin while asking the least racket speed.
 2. :func:`racket_for_return`: the racket normal n and velocity v_R. Along the normal, the impact
    law v_out,n = v_R,n + e (v_R,n - v_in,n) gives v_R,n = (n.v_out + e n.v_in) / (1 + e), and
-   n = (v_out - v_in) / |v_out - v_in|. Tangentially the racket moves with the ball
-   (v_R,t = v_in,t): the contact point does not slip, so the rubber's friction (mu = 0.9 in our
-   world) does not act and the ball's tangential velocity passes unchanged, as the law assumes.
-   equations.md's form sets v_R,t = 0 instead, which with a grippy racket would cut the ball's
-   tangential velocity towards the rolling limit (0.6 of it) and spin it.
+   n = (v_out - v_in) / |v_out - v_in|. Tangentially the racket moves with the ball's contact
+   point, v_R,t = tangential part of (v_in + omega x (-R n)): the contact point does not slip, so
+   the rubber's friction (mu = 0.9 in our world) does not act and the ball's tangential velocity
+   and spin pass unchanged, as the law assumes. equations.md's form sets v_R,t = 0 instead, which
+   with a grippy racket would pull the ball's tangential velocity toward the rolling limit; and a
+   ball off the table carries 70-90 rad/s of topspin (omega R ~ 1.5 m/s at the contact point),
+   which measured 0.3-0.5 m/s of error in v_out when ignored. The spin stays with the ball, so
+   the aim includes its Magnus force.
 
 The restitution e is the one the arm-held racket shows in the Drake world (tests/systems/
 test_racket.py): a Hunt-Crossley contact with an effective dissipation
@@ -53,8 +56,9 @@ class RacketState:
     restitution: float
 
 
-def racket_for_return(v_in, v_out) -> RacketState:
-    """Racket normal and velocity that turn the ball's v_in into v_out (module docstring).
+def racket_for_return(v_in, v_out, spin=(0.0, 0.0, 0.0)) -> RacketState:
+    """Racket normal and velocity that turn the ball's v_in (spinning at ``spin``) into v_out
+    without slip (module docstring).
 
     e depends on the relative normal speed, which depends on v_R,n: a fixed-point iteration
     (it converges in a few steps, e changing slowly with speed).
@@ -75,7 +79,8 @@ def racket_for_return(v_in, v_out) -> RacketState:
             break
         e = e_new
     vr_n = (vout_n + e * vin_n) / (1.0 + e)
-    v_racket = (v_in - vin_n * n) + vr_n * n
+    contact = v_in + np.cross(np.asarray(spin, dtype=float), -BALL.radius * n)
+    v_racket = (contact - float(n @ contact) * n) + vr_n * n
     return RacketState(n, v_racket, e)
 
 
@@ -98,20 +103,21 @@ class ReturnAim:
     landing: np.ndarray  # where the ball centre reaches table-contact height (x, y)
 
 
-def _fly(model: BallModel, p, v, duration: float, h: float = 0.02) -> tuple:
+def _fly(model: BallModel, p, v, duration: float, spin=(0.0, 0.0, 0.0),
+         h: float = 0.02) -> tuple:
     """Ball position after ``duration`` seconds of free flight (no table), RK4 with step ~h."""
     steps = max(1, int(math.ceil(duration / h)))
     dt = duration / steps
     pos, vel = tuple(p), tuple(v)
-    w = (0.0, 0.0, 0.0)
+    w = tuple(float(c) for c in spin)
     for _ in range(steps):
         pos, vel = model.flight_step(pos, vel, w, dt)
     return pos, vel
 
 
 def solve_outgoing_velocity(p_hit, target, flight_time: float, model: BallModel | None = None,
-                            tol: float = 1e-6) -> np.ndarray:
-    """v_out with p(T; v_out) = target under gravity and drag.
+                            tol: float = 1e-6, spin=(0.0, 0.0, 0.0)) -> np.ndarray:
+    """v_out with p(T; v_out) = target under gravity, drag and the Magnus force of ``spin``.
 
     Broyden's method from the drag-free solution v = (target - p - g T^2 / 2) / T and its
     Jacobian dp/dv = T I: drag is a smooth perturbation, so one flight per iteration and
@@ -124,13 +130,13 @@ def solve_outgoing_velocity(p_hit, target, flight_time: float, model: BallModel 
     g = np.array([0.0, 0.0, -model.params.gravity])
     v = (goal - p - 0.5 * g * t * t) / t
     inv_jac = np.eye(3) / t
-    residual = np.array(_fly(model, p, v, t)[0]) - goal
+    residual = np.array(_fly(model, p, v, t, spin)[0]) - goal
     for _ in range(30):
         if np.linalg.norm(residual) < tol:
             return v
         step = -inv_jac @ residual
         v = v + step
-        new_residual = np.array(_fly(model, p, v, t)[0]) - goal
+        new_residual = np.array(_fly(model, p, v, t, spin)[0]) - goal
         dr = new_residual - residual
         denom = float(step @ inv_jac @ dr)
         if abs(denom) > 1e-15:  # Broyden's "good" update of the inverse Jacobian
@@ -141,11 +147,11 @@ def solve_outgoing_velocity(p_hit, target, flight_time: float, model: BallModel 
     raise ValueError(f"no outgoing velocity reaches {goal} in {t} s from {p}")
 
 
-def net_clearance(model: BallModel, p, v) -> float:
+def net_clearance(model: BallModel, p, v, spin=(0.0, 0.0, 0.0)) -> float:
     """Height of the ball's bottom above the net top when its centre crosses y = 0 (free flight;
     -inf if it falls to the table height first)."""
     pos, vel = tuple(p), tuple(v)
-    w = (0.0, 0.0, 0.0)
+    w = tuple(float(c) for c in spin)
     contact_z = TABLE.surface_z + BALL.radius
     for _ in range(200):
         new_p, new_v = model.flight_step(pos, vel, w, 0.01)
@@ -160,8 +166,10 @@ def net_clearance(model: BallModel, p, v) -> float:
 
 
 def aim_return(p_hit, v_in, target=(TARGET.x, TARGET.y), model: BallModel | None = None,
-               flight_times=FLIGHT_TIMES, min_clearance: float = 0.05) -> ReturnAim:
-    """The outgoing velocity that lands the ball at ``target`` (x, y on the table surface).
+               flight_times=FLIGHT_TIMES, min_clearance: float = 0.05,
+               spin=(0.0, 0.0, 0.0)) -> ReturnAim:
+    """The outgoing velocity that lands the ball at ``target`` (x, y on the table surface), for a
+    ball spinning at ``spin`` (kept through a no-slip hit).
 
     Among the candidate flight times it keeps those whose path clears the net by
     ``min_clearance`` and returns the one that needs the smallest racket speed; if none clears
@@ -171,9 +179,9 @@ def aim_return(p_hit, v_in, target=(TARGET.x, TARGET.y), model: BallModel | None
     goal = np.array([target[0], target[1], TABLE.surface_z + BALL.radius])
     best, best_key = None, None
     for t in flight_times:
-        v_out = solve_outgoing_velocity(p_hit, goal, t, model)
-        clearance = net_clearance(model, p_hit, v_out)
-        speed = float(np.linalg.norm(racket_for_return(v_in, v_out).velocity))
+        v_out = solve_outgoing_velocity(p_hit, goal, t, model, spin=spin)
+        clearance = net_clearance(model, p_hit, v_out, spin)
+        speed = float(np.linalg.norm(racket_for_return(v_in, v_out, spin).velocity))
         key = (0, speed) if clearance >= min_clearance else (1, -clearance)
         if best_key is None or key < best_key:
             best, best_key = ReturnAim(v_out, float(t), clearance, goal[:2].copy()), key
