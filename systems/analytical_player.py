@@ -17,7 +17,8 @@ Per camera frame, while the ball comes toward the robot and the hitting stage ha
 
 It stops re-planning once the hitting stage has begun (paper section III-A). A re-plan is
 dropped, keeping the previous one, when the arm solution jumps to another configuration
-(> ``max_branch_change`` on a joint) or the new plan needs more than the joints' acceleration
+(> ``max_branch_change`` on a joint) while the hitting point moved less than
+``research_distance``, or when the new plan leaves the joint position, velocity or acceleration
 limits. The player only sees
 what the camera sees: its inputs are the estimator's outputs, never the true ball state.
 
@@ -28,6 +29,7 @@ Ports of :class:`AnalyticalPlayer`: inputs ``estimated_state`` (6: p, v) and ``e
 The output ports evaluate the stored plan (a quintic per joint): O(1) work per integrator step.
 """
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,9 +37,9 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from tt_drake import wam_params as wp
-from tt_drake.ball_model import BallModel, CompliantBounceBallModel
+from tt_drake.ball_model import BallModel, BallModelParams, CompliantBounceBallModel
 from tt_drake.constants import BALL, PLANES, TARGET
-from tt_drake.racket_law import FLIGHT_TIMES, aim_return, racket_for_return
+from tt_drake.racket_law import FLIGHT_TIMES, aim_candidates, racket_for_return
 from tt_drake.stages import (
     AWAITING,
     HITTING,
@@ -79,7 +81,22 @@ class PlannerConfig:
     replan_position: float = 0.003  # m: a prediction this close to the last one changes nothing
     replan_time: float = 0.002  # s
     max_branch_change: float = 0.5  # rad: a re-plan moving theta_hit further is another IK branch
+    research_distance: float = 0.05  # m: a hitting point this far from the last re-aims fully
     times: StageTimes = StageTimes()
+
+
+#: How much larger than the table the planner's model takes it (m): the launcher serves only onto
+#: the table, and a ball bouncing within a few centimetres of the edge is, with camera noise,
+#: otherwise predicted to miss it (and to cross the hitting plane half a metre low).
+TABLE_EDGE_PRIOR = 0.05
+
+
+def planner_ball_model() -> BallModel:
+    params = BallModelParams()
+    params = dataclasses.replace(
+        params, table_half_length=params.table_half_length + TABLE_EDGE_PRIOR,
+        table_half_width=params.table_half_width + TABLE_EDGE_PRIOR)
+    return CompliantBounceBallModel(params, dt=2e-3)
 
 
 class StrokePlanner:
@@ -93,12 +110,13 @@ class StrokePlanner:
             arm = HittingIK()
         self.arm = arm
         self.config = config or PlannerConfig()
-        self.model = model or CompliantBounceBallModel(dt=2e-3)
+        self.model = model or planner_ball_model()
         self.q_await = np.asarray(wp.AWAITING, dtype=float)
         self.acceleration_limit = np.asarray(wp.ACCELERATION_LIMIT, dtype=float)
         self.limits = JointLimits(np.asarray(wp.JOINT_LOWER, dtype=float),
                                   np.asarray(wp.JOINT_UPPER, dtype=float),
-                                  np.asarray(wp.VELOCITY_LIMIT, dtype=float))
+                                  np.asarray(wp.VELOCITY_LIMIT, dtype=float),
+                                  self.acceleration_limit)
 
     def awaiting_plan(self, t: float = 0.0) -> StagePlan:
         zero = np.zeros(7)
@@ -121,21 +139,30 @@ class StrokePlanner:
         return hit.position, hit.velocity, t_state + hit.t, hit.spin
 
     def stroke(self, p_hit, v_hit, t_hit, spin, previous: Stroke | None) -> Stroke | None:
-        """Aim, racket and arm for a stimulus; None if the arm cannot reach it."""
+        """Aim, racket and arm for a stimulus; None if the arm cannot reach it, or if the
+        hitting point barely moved but the solution jumped to another arm configuration (the
+        IK's local optimum moved, not the task).
+
+        Small corrections keep the previous flight time (one Broyden solve); a hitting point that
+        moved more than ``research_distance`` searches all candidate flight times again."""
         cfg = self.config
-        times = (previous.flight_time,) if previous is not None else FLIGHT_TIMES
-        aim = aim_return(p_hit, v_hit, (cfg.target_x, cfg.target_y), flight_times=times,
-                         spin=spin)
-        racket = racket_for_return(v_hit, aim.v_out, spin)
+        close = previous is not None and float(
+            np.linalg.norm(np.asarray(p_hit) - previous.p_hit)) < cfg.research_distance
+        times = (previous.flight_time,) if close else FLIGHT_TIMES
         seed = previous.q_hit if previous is not None else None
         # The ball touches the blade face when its centre is R + t/2 in front of the blade centre.
         contact_offset = BALL.radius + 0.5 * wp.RACKET.blade_thickness
-        ik = self.arm.solve(np.asarray(p_hit) - contact_offset * racket.normal, racket.normal,
-                            q_seed=seed)
-        if not ik.success:
+        # Each flight time asks for another racket normal: take the best one the arm reaches.
+        for aim in aim_candidates(p_hit, v_hit, (cfg.target_x, cfg.target_y),
+                                  flight_times=times, spin=spin):
+            racket = racket_for_return(v_hit, aim.v_out, spin)
+            ik = self.arm.solve(np.asarray(p_hit) - contact_offset * racket.normal,
+                                racket.normal, q_seed=seed)
+            if ik.success:
+                break
+        else:
             return None
-        if previous is not None and (np.abs(ik.q - previous.q_hit).max()
-                                     > self.config.max_branch_change):
+        if close and (np.abs(ik.q - previous.q_hit).max() > self.config.max_branch_change):
             return None  # the solver jumped to another arm configuration: keep the last stroke
         qd_hit = self.arm.joint_velocities(ik.q, racket.velocity)
         replans = previous.replans + 1 if previous is not None else 1
@@ -151,14 +178,34 @@ class StrokePlanner:
                 > self.config.replan_position
                 or abs(t_hit - previous.t_hit) > self.config.replan_time)
 
+    def feasible(self, plan: StagePlan) -> bool:
+        """Within the joint position, velocity and acceleration limits everywhere (sampled at
+        200 Hz)."""
+        ext = plan_extremes(plan, rate=200.0)
+        return bool(np.all(ext["qdd_max"] <= self.acceleration_limit)
+                    and np.all(ext["qd_max"] <= self.limits.velocity)
+                    and np.all(ext["q_min"] >= self.limits.lower)
+                    and np.all(ext["q_max"] <= self.limits.upper))
+
     def plan(self, now: float, current: StagePlan, stroke: Stroke) -> StagePlan | None:
-        """The current plan up to ``now`` followed by the stroke; None to keep waiting."""
+        """The current plan up to ``now`` followed by the stroke; None to keep waiting.
+
+        Waiting at rest is safe only while a direct hit started at the next frame would still be
+        feasible; otherwise the hit starts now."""
         preparing = current.stage_at(now) == PREPARATION
-        plan = plan_stroke(now, current.evaluate(now), stroke.t_hit, stroke.q_hit, stroke.qd_hit,
-                           self.q_await, self.limits, self.config.times, preparing)
+        state = current.evaluate(now)
+
+        def stroke_from(t: float, allow_wait: bool):
+            return plan_stroke(t, state, stroke.t_hit, stroke.q_hit, stroke.qd_hit, self.q_await,
+                               self.limits, self.config.times, preparing, allow_wait)
+
+        plan = stroke_from(now, allow_wait=True)
         if plan is None:
-            return None
-        if np.any(plan_extremes(plan, rate=100.0)["qdd_max"] > self.acceleration_limit):
+            later = stroke_from(now + 1.0 / 60.0, allow_wait=False)
+            if self.feasible(later):
+                return None
+            plan = stroke_from(now, allow_wait=False)
+        if not self.feasible(plan):
             return None  # not feasible for the arm: keep the current plan
         return StagePlan(current.truncated(now).segments + plan.segments)
 

@@ -23,7 +23,14 @@ from pydrake.math import RigidTransform
 from pydrake.multibody.plant import ContactResults
 from pydrake.systems.framework import EventStatus, LeafSystem
 
-from tt_drake.referee_rules import ContactDetector, Outcome, RefereeConfig, judge
+from tt_drake.referee_rules import (
+    FLOOR_CONTACT,
+    ContactDetector,
+    ContactEvent,
+    Outcome,
+    RefereeConfig,
+    judge,
+)
 from tt_drake.systems.immutable import Immutable
 
 
@@ -90,10 +97,15 @@ class Referee(LeafSystem):
             if event is not None:
                 events = (*events, event)
         touched = old.touched or self._robot_touches_table(context)
+        if cur[1][2] < self._stop_below:
+            # The ball is at the floor: that is its last contact, whether or not the floor
+            # contact itself fell between samples.
+            events = (*events, ContactEvent(cur[0], FLOOR_CONTACT, cur[1]))
+            state.get_mutable_abstract_state(self._state_index).set_value(
+                _RefereeState(cur, events, touched))
+            return EventStatus.ReachedTermination(self, "the ball reached the floor")
         state.get_mutable_abstract_state(self._state_index).set_value(
             _RefereeState(cur, events, touched))
-        if cur[1][2] < self._stop_below:
-            return EventStatus.ReachedTermination(self, "the ball reached the floor")
         return EventStatus.Succeeded()
 
     def events(self, context):

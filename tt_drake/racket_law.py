@@ -165,24 +165,28 @@ def net_clearance(model: BallModel, p, v, spin=(0.0, 0.0, 0.0)) -> float:
     return -math.inf
 
 
-def aim_return(p_hit, v_in, target=(TARGET.x, TARGET.y), model: BallModel | None = None,
-               flight_times=FLIGHT_TIMES, min_clearance: float = 0.05,
-               spin=(0.0, 0.0, 0.0)) -> ReturnAim:
-    """The outgoing velocity that lands the ball at ``target`` (x, y on the table surface), for a
-    ball spinning at ``spin`` (kept through a no-slip hit).
-
-    Among the candidate flight times it keeps those whose path clears the net by
-    ``min_clearance`` and returns the one that needs the smallest racket speed; if none clears
-    the net, the one with the largest clearance.
-    """
+def aim_candidates(p_hit, v_in, target=(TARGET.x, TARGET.y), model: BallModel | None = None,
+                   flight_times=FLIGHT_TIMES, min_clearance: float = 0.05,
+                   spin=(0.0, 0.0, 0.0)) -> list[ReturnAim]:
+    """One outgoing velocity per candidate flight time that lands the ball at ``target`` (x, y on
+    the table surface), for a ball spinning at ``spin`` (kept through a no-slip hit), best first:
+    those clearing the net by ``min_clearance`` by increasing racket speed, then the others by
+    decreasing clearance. Each asks for a different racket normal."""
     model = model or BallModel()
     goal = np.array([target[0], target[1], TABLE.surface_z + BALL.radius])
-    best, best_key = None, None
+    ranked = []
     for t in flight_times:
         v_out = solve_outgoing_velocity(p_hit, goal, t, model, spin=spin)
         clearance = net_clearance(model, p_hit, v_out, spin)
         speed = float(np.linalg.norm(racket_for_return(v_in, v_out, spin).velocity))
         key = (0, speed) if clearance >= min_clearance else (1, -clearance)
-        if best_key is None or key < best_key:
-            best, best_key = ReturnAim(v_out, float(t), clearance, goal[:2].copy()), key
-    return best
+        ranked.append((key, ReturnAim(v_out, float(t), clearance, goal[:2].copy())))
+    ranked.sort(key=lambda item: item[0])
+    return [aim for _, aim in ranked]
+
+
+def aim_return(p_hit, v_in, target=(TARGET.x, TARGET.y), model: BallModel | None = None,
+               flight_times=FLIGHT_TIMES, min_clearance: float = 0.05,
+               spin=(0.0, 0.0, 0.0)) -> ReturnAim:
+    """The best of :func:`aim_candidates`: clears the net with the least racket speed."""
+    return aim_candidates(p_hit, v_in, target, model, flight_times, min_clearance, spin)[0]

@@ -126,15 +126,26 @@ class JointLimits:
     lower: np.ndarray
     upper: np.ndarray
     velocity: np.ndarray
+    acceleration: np.ndarray | None = None
     margin: float = 0.05  # rad kept from the position limits when choosing postures
 
     def clip(self, q: np.ndarray) -> np.ndarray:
         return np.clip(q, self.lower + self.margin, self.upper - self.margin)
 
+    def move_time(self, q0, q1, safety: float = 1.25) -> float:
+        """Time a rest-to-rest quintic from q0 to q1 needs to stay within the velocity and
+        acceleration limits: its peaks are 1.875 |dq| / T and 5.77 |dq| / T^2 (times
+        ``safety``)."""
+        dq = np.abs(np.asarray(q1, dtype=float) - np.asarray(q0, dtype=float))
+        t = 1.875 * dq / self.velocity
+        if self.acceleration is not None:
+            t = np.maximum(t, np.sqrt(5.7735 * dq / self.acceleration))
+        return safety * float(t.max())
+
 
 def plan_stroke(now: float, state: tuple, t_hit: float, q_hit, qd_hit, q_await,
                 limits: JointLimits, times: StageTimes = StageTimes(),
-                preparing: bool = False) -> StagePlan | None:
+                preparing: bool = False, allow_wait: bool = True) -> StagePlan | None:
     """The whole stroke from the current desired ``state`` = (q, q_dot, q_ddot) at ``now``:
     preparation -> hitting (arriving at (q_hit, qd_hit) at ``t_hit``) -> follow-through ->
     back to ``q_await``.
@@ -144,26 +155,31 @@ def plan_stroke(now: float, state: tuple, t_hit: float, q_hit, qd_hit, q_await,
     q_hit + (T_ft / 2) qd_hit reached at rest, a quintic without overshoot; T_ft is shortened
     (to no less than ``min_follow_through``) so that every joint stops inside its limits.
 
-    Timing: the hitting stage starts at t_hit - T_hit. A swing-back from rest starts only with at
-    least ``min_preparation`` to go before then (short swings demand accelerations the arm's
-    torques cannot give); an ongoing one (``preparing``) is re-planned until ``min_replan`` before
-    its end. Otherwise, at rest, the player waits (returns None: keep the current plan and
-    re-plan at the next prediction) until the hitting stage must start; once it must, or if
-    t_hit is closer than T_hit, the hitting segment starts now from ``state``.
+    Timing: the hitting stage starts at t_hit - T_hit. A swing-back from rest starts only with
+    enough time before then: ``min_preparation``, or longer if the distance to q_prep needs it
+    (:meth:`JointLimits.move_time`); an ongoing one (``preparing``) is re-planned until
+    ``min_replan`` before its end. Otherwise, at rest and if ``allow_wait``, it returns None: wait
+    (keep the current plan, re-plan at the next prediction) until the hitting stage's start; the
+    caller decides whether waiting is safe (a direct hit started later must still be feasible).
+    Without a swing-back the hitting segment starts from ``state`` and lasts until t_hit,
+    possibly longer than T_hit.
     """
     q, qd, qdd = (np.asarray(x, dtype=float) for x in state)
     q_hit, qd_hit = np.asarray(q_hit, dtype=float), np.asarray(qd_hit, dtype=float)
     zero = np.zeros_like(q)
     segments: list[tuple[str, Quintic]] = []
     t_start_hit = t_hit - times.hitting
-    lead = times.min_replan if preparing else times.min_preparation
+    q_prep = limits.clip(q_hit - 0.5 * times.hitting * qd_hit)
+    if preparing:
+        lead = times.min_replan
+    else:
+        lead = max(times.min_preparation, limits.move_time(q, q_prep))
     if t_start_hit - now >= lead:
-        q_prep = limits.clip(q_hit - 0.5 * times.hitting * qd_hit)
         prep = Quintic.fit(now, t_start_hit - now, q, qd, qdd, q_prep, zero, zero)
         segments.append((PREPARATION, prep))
         start = (q_prep, zero, zero, t_start_hit)
-    elif t_start_hit > now and not preparing:
-        return None  # at rest: wait for the hitting stage's start, re-planning meanwhile
+    elif allow_wait and not preparing and t_start_hit > now:
+        return None  # at rest: wait, re-planning meanwhile, until the hit must start
     else:
         if t_hit - now <= 1e-3:
             raise ValueError(f"no time left to hit: t_hit {t_hit:.3f} s, now {now:.3f} s")

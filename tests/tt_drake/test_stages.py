@@ -102,6 +102,8 @@ def test_at_rest_with_too_little_time_for_a_swing_back_the_player_waits():
     t_hit = 0.5 * t.min_preparation + t.hitting  # swing-back would have half the time it needs
     rest = (Q_AWAIT, np.zeros(7), np.zeros(7))
     assert plan_stroke(0.0, rest, t_hit, Q_AWAIT, np.ones(7), Q_AWAIT, LIMITS) is None
+    direct = plan_stroke(0.0, rest, t_hit, Q_AWAIT, np.ones(7), Q_AWAIT, LIMITS, allow_wait=False)
+    assert direct.segments[0][0] == HITTING and direct.segments[0][1].duration == t_hit
     # ...but an ongoing swing-back is re-planned with that little time left
     plan = plan_stroke(0.0, rest, t_hit, Q_AWAIT, np.ones(7), Q_AWAIT, LIMITS, preparing=True)
     assert plan.segments[0][0] == PREPARATION
@@ -110,8 +112,8 @@ def test_at_rest_with_too_little_time_for_a_swing_back_the_player_waits():
 def test_a_fast_hit_near_a_limit_stops_inside_it():
     q_hit = np.full(7, 2.2)  # 0.25 rad from the margin, moving toward the limit at 3 rad/s
     plan = plan_stroke(0.0, (Q_AWAIT, np.zeros(7), np.zeros(7)), 0.8, q_hit, np.full(7, 3.0),
-                       Q_AWAIT, LIMITS)
-    follow = plan.segments[2][1]
+                       Q_AWAIT, LIMITS, allow_wait=False)
+    follow = next(seg for stage, seg in plan.segments if stage == FOLLOW_THROUGH)
     assert follow.duration < StageTimes().follow_through  # shortened to stop in time
     ext = plan_extremes(plan)
     assert np.all(ext["q_max"] <= LIMITS.upper - LIMITS.margin + 1e-9)
