@@ -3,6 +3,7 @@
     tt-drake serve  --player idle --serves N --seed S [--scenario default] [--distribution D]
                     [--html out.html] [--json out.json]
     tt-drake bench  [--serves N] [--json out.json]
+    tt-drake collect --player analytical --serves N --seed S --out DIR [--workers W]
     tt-drake models  (rewrite the generated model files in models/)
 
 Bad input (an unknown or malformed scenario field, a missing model or data file, an unknown
@@ -58,6 +59,16 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--player", default="idle")
     bench.add_argument("--json", default=None, help="write the measurements as JSON")
     _add_scenario_options(bench)
+
+    collect = sub.add_parser("collect", help="record teacher demonstrations (resumable)")
+    collect.add_argument("--player", default="analytical")
+    collect.add_argument("--serves", type=_positive_int, default=100)
+    collect.add_argument("--seed", type=int, default=0)
+    collect.add_argument("--out", required=True, help="dataset folder (created, or resumed)")
+    collect.add_argument("--workers", type=_positive_int, default=None,
+                         help="parallel worker processes (default: all cores)")
+    collect.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_scenario_options(collect)
 
     sub.add_parser("models", help="rewrite the generated model files in models/")
 
@@ -120,6 +131,19 @@ def _bench(args) -> None:
         print(f"wrote {args.json}")
 
 
+def _collect(args) -> None:
+    from tt_drake.diagrams.collect import collect
+    from tt_drake.diagrams.parallel import default_workers
+
+    _check_player(args.player)
+    scenario = _scenario(args)
+    summary = collect(scenario, args.player, args.serves, args.seed, args.out,
+                      args.workers or default_workers(), progress=not args.quiet)
+    print(f"{summary['folder']}: {summary['serves']} serves ({summary['simulated']} simulated "
+          f"now, {summary['kept']} kept from before), legal return "
+          f"{summary['return_rate']:.1%}")
+
+
 def _models(_args) -> None:
     from tt_drake.modelgen.__main__ import main as write_models
 
@@ -142,11 +166,12 @@ def _eval_predictor(args) -> None:
         print(f"wrote {args.json}")
 
 
-COMMANDS = {"serve": _serve, "bench": _bench, "models": _models,
+COMMANDS = {"serve": _serve, "bench": _bench, "collect": _collect, "models": _models,
             "train-predictor": _train_predictor, "eval-predictor": _eval_predictor}
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
+    from tt_drake.diagrams.collect import DatasetError
     from tt_drake.diagrams.episodes import PlayerError
     from tt_drake.diagrams.predictor import PredictorError
     from tt_drake.diagrams.scenario import ScenarioError
@@ -156,7 +181,7 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from tt_drake.systems.world import ModelFileError
 
     return (CliError, ScenarioError, ServeError, PlayerError, ModelFileError, OutputError,
-            PredictorError, PredictorFileError)
+            PredictorError, PredictorFileError, DatasetError)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -90,6 +90,7 @@ class EpisodeResult:
     wall_time: float
     ball_path: np.ndarray | None = field(default=None, repr=False)
     arm: dict | None = None
+    record: dict | None = field(default=None, repr=False)  # demonstration data (collect)
 
     def as_dict(self) -> dict:
         return {
@@ -107,7 +108,7 @@ class ServeDiagram:
     """The serve diagram of one scenario and player, built once and reused for every episode."""
 
     def __init__(self, scenario: Scenario, player: str = "idle", meshcat=None,
-                 log_ball: bool = False):
+                 log_ball: bool = False, record: bool = False):
         if player not in PLAYERS:
             raise PlayerError(f"unknown player {player!r}; choose one of {', '.join(PLAYERS)}")
         self.scenario = scenario
@@ -142,6 +143,11 @@ class ServeDiagram:
             self.torque_logger = builder.AddNamedSystem("torque_logger", VectorLogSink(7, period))
             builder.Connect(self.controller.GetOutputPort("actuation"),
                             self.torque_logger.get_input_port())
+        self.recorder = None
+        if record:
+            from tt_drake.diagrams.demonstrations import DemonstrationRecorder
+
+            self.recorder = DemonstrationRecorder(builder, world, scenario)
         self.ball_logger = None
         if log_ball:
             self.ball_logger = builder.AddNamedSystem("ball_logger", VectorLogSink(13, 1.0 / 120))
@@ -198,6 +204,8 @@ class ServeDiagram:
         set_ball_state(self.world, plant_context, serve.launch_state)
         for logger in self._loggers():
             logger.FindMutableLog(self.context).Clear()
+        if self.recorder is not None:
+            self.recorder.clear(self.context)
         max_duration = float(serve.crossing.t + self.scenario.after_crossing)
         self.simulator.Initialize()
         self.simulator.AdvanceTo(start_time + max_duration)  # the referee may end it earlier
@@ -213,8 +221,11 @@ class ServeDiagram:
             tau = self.torque_logger.FindLog(self.context).data().T
             arm = arm_metrics(x[:, :7], x[:, 7:], tau)
         crossing = np.r_[serve.crossing.position, serve.crossing.velocity, serve.crossing.t]
+        record = None
+        if self.recorder is not None:
+            record = self.recorder.extract(self.diagram, self.context, outcome)
         return EpisodeResult(seed, list(serve.launch_state), list(crossing), duration, outcome,
-                             time.perf_counter() - wall, path, arm)
+                             time.perf_counter() - wall, path, arm, record)
 
     def _loggers(self) -> list:
         loggers = [self.ball_logger] if self.ball_logger is not None else []

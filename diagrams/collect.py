@@ -1,0 +1,144 @@
+"""``tt-drake collect``: a teacher-demonstration dataset, in resumable chunks.
+
+    DIR/manifest.json        what the run is: player, distribution, seed, serves, chunk size
+    DIR/chunk_00000.npz ...  ``chunk_size`` serves each (default :data:`CHUNK_SIZE`; artefact kind
+                             "teacher-demonstrations", loaded without pickle)
+
+Serve i uses ``episode_seed(seed, i)``, exactly as ``tt-drake serve``. Chunks are written
+atomically as they complete; an interrupted run, started again with the same arguments, keeps the
+chunks that load and simulates only the missing ones. A DIR that holds another run's data is
+refused rather than mixed. :func:`load_dataset` concatenates the chunks.
+"""
+
+import functools
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from tt_drake.artefacts import ArtefactError, load_artefact, save_artefact
+from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
+from tt_drake.diagrams.parallel import run_episodes
+from tt_drake.diagrams.scenario import Scenario
+from tt_drake.outputs import write_json_atomic
+from tt_drake.stages import STAGES
+
+KIND = "teacher-demonstrations"
+CHUNK_SIZE = 25
+MANIFEST = "manifest.json"
+PER_SERVE = ("features", "true_hit", "stimulus", "q_hit", "qd_hit", "durations", "landing",
+             "hit", "returned", "on_target", "reward")
+TRAJECTORY_COLUMNS = ["t", "stage"] + [f"{name}{j}" for name in ("q", "qd", "qdd")
+                                       for j in range(1, 8)]
+
+
+class DatasetError(ValueError):
+    """A dataset folder that cannot be used (another run's data, unreadable, empty)."""
+
+
+def _chunk_path(folder: Path, index: int) -> Path:
+    return folder / f"chunk_{index:05d}.npz"
+
+
+def _manifest(scenario: Scenario, player: str, serves: int, seed: int, chunk_size: int) -> dict:
+    return {"format": KIND, "player": player, "scenario": scenario.name,
+            "distribution": scenario.launcher.distribution, "seed": seed, "serves": serves,
+            "chunk_size": chunk_size, "stages": list(STAGES),
+            "trajectory_columns": TRAJECTORY_COLUMNS}
+
+
+def prepare_folder(folder: Path, manifest: dict) -> None:
+    """Create ``folder`` with its manifest, or check an existing one is this run's."""
+    if folder.exists() and not folder.is_dir():
+        raise DatasetError(f"not a folder: {folder}")
+    path = folder / MANIFEST
+    if path.exists():
+        try:
+            existing = json.loads(path.read_text())
+        except (OSError, json.JSONDecodeError) as err:
+            raise DatasetError(f"unreadable manifest {path}: {err}") from None
+        if existing != manifest:
+            diff = sorted(k for k in set(existing) | set(manifest)
+                          if existing.get(k) != manifest.get(k))
+            raise DatasetError(f"{folder} holds another run's dataset (differs in "
+                               f"{', '.join(diff)}); use another --out")
+        return
+    if folder.exists() and any(folder.iterdir()):
+        raise DatasetError(f"{folder} is not empty and has no {MANIFEST}; use another --out")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise DatasetError(f"cannot create {folder}: {err}") from None
+    write_json_atomic(path, manifest)
+
+
+def _pack(indices: list[int], seeds: list[int], results: list) -> dict:
+    """One chunk's arrays: per-serve arrays and the concatenated trajectories with an owner
+    column (the serve's index in the run)."""
+    arrays = {"index": np.array(indices), "seed": np.array(seeds, dtype=np.uint64)}
+    for key in PER_SERVE:
+        arrays[key] = np.array([r.record[key] for r in results], dtype=float)
+    trajectories = [r.record["trajectory"] for r in results]
+    owners = [np.full(len(traj), i) for i, traj in zip(indices, trajectories, strict=True)]
+    arrays["trajectory"] = np.vstack(trajectories) if trajectories else np.zeros((0, 23))
+    arrays["trajectory_serve"] = np.concatenate(owners) if owners else np.zeros(0, int)
+    return arrays
+
+
+def collect(scenario: Scenario, player: str, serves: int, seed: int, out: str,
+            workers: int = 1, progress: bool = True, chunk_size: int = CHUNK_SIZE) -> dict:
+    """Simulate the missing chunks of the dataset; returns a summary."""
+    folder = Path(out)
+    prepare_folder(folder, _manifest(scenario, player, serves, seed, chunk_size))
+    n_chunks = -(-serves // chunk_size)
+    missing = []
+    for c in range(n_chunks):
+        try:
+            load_artefact(_chunk_path(folder, c), KIND)
+        except ArtefactError:
+            missing.append(c)
+    todo = [i for c in missing for i in range(c * chunk_size, min(serves, (c + 1) * chunk_size))]
+    bar = tqdm(total=serves, initial=serves - len(todo), desc=f"collecting ({player})",
+               unit="serve", file=sys.stderr, disable=not progress)
+    make = functools.partial(ServeDiagram, record=True)
+    seeds = [episode_seed(seed, i) for i in todo]
+    pending: dict[int, list] = {}
+    for i, s, result in zip(todo, seeds, run_episodes(scenario, player, seeds, workers, make),
+                            strict=True):
+        chunk = i // chunk_size
+        pending.setdefault(chunk, []).append((i, s, result))
+        bar.update()
+        size = min(serves, (chunk + 1) * chunk_size) - chunk * chunk_size
+        if len(pending[chunk]) == size:
+            items = pending.pop(chunk)
+            save_artefact(_chunk_path(folder, chunk), KIND,
+                          _pack([i for i, _, _ in items], [s for _, s, _ in items],
+                                [r for _, _, r in items]),
+                          {"chunk": chunk, "seed": seed, "player": player})
+    bar.close()
+    data = load_dataset(folder)
+    return {"serves": serves, "simulated": len(todo), "kept": serves - len(todo),
+            "return_rate": float(data["returned"].mean()), "folder": str(folder)}
+
+
+def load_dataset(folder) -> dict:
+    """All chunks of a dataset concatenated (per-serve arrays in serve order, trajectories with
+    their ``trajectory_serve`` owner), plus ``manifest``. Raises DatasetError if incomplete."""
+    folder = Path(folder)
+    try:
+        manifest = json.loads((folder / MANIFEST).read_text())
+    except (OSError, json.JSONDecodeError) as err:
+        raise DatasetError(f"not a dataset folder {folder}: {err}") from None
+    n_chunks = -(-manifest["serves"] // manifest["chunk_size"])
+    parts = []
+    for c in range(n_chunks):
+        try:
+            arrays, _ = load_artefact(_chunk_path(folder, c), KIND)
+        except ArtefactError as err:
+            raise DatasetError(f"dataset {folder} is incomplete or damaged: {err}") from None
+        parts.append(arrays)
+    data = {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
+    data["manifest"] = manifest
+    return data

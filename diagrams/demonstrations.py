@@ -1,0 +1,136 @@
+"""Teacher demonstrations: what one serve episode of a planning player leaves for learning.
+
+Per serve (paper sections III-B and III-C):
+
+- ``features`` (24): the estimator's (p, v) at the four camera frames after the ball passes the
+  virtual plane s (:func:`tt_drake.hitting_point.observation_frames`), NaN if not tracked;
+- ``true_hit`` (7): the true ball state where it crossed the virtual hitting plane (p, v, t);
+- ``stimulus`` (7): the player's own prediction it struck with (p_hit, v_hit, t_hit);
+- ``q_hit``, ``qd_hit`` (7 each): the hitting configuration;
+- stage trajectories sampled at 500 Hz from the executed plan: time, stage index (into
+  :data:`tt_drake.stages.STAGES`), q, q_dot, q_ddot; and each stage's duration;
+- the referee's outcome (hit, returned, on target, reward, landing).
+
+:class:`DemonstrationRecorder` adds the loggers it needs to the serve diagram and extracts the
+record after each episode; :mod:`tt_drake.diagrams.collect` writes the records in chunks.
+"""
+
+import math
+
+import numpy as np
+from pydrake.systems.primitives import VectorLogSink
+
+from tt_drake.ball_model import CompliantBounceBallModel
+from tt_drake.constants import PLANES
+from tt_drake.hitting_point import observation_frames, plane_crossing_from_samples
+from tt_drake.stages import AWAITING, FOLLOW_THROUGH, HITTING, PREPARATION, STAGES
+
+SAMPLE_RATE = 500.0
+NAN7 = [math.nan] * 7
+
+
+class DemonstrationRecorder:
+    def __init__(self, builder, world, scenario):
+        plant = world.plant
+        period = 1.0 / scenario.referee_rate
+        self.ball_log = builder.AddNamedSystem("demo_ball_logger", VectorLogSink(13, period))
+        builder.Connect(plant.get_state_output_port(world.ball), self.ball_log.get_input_port())
+        self.estimator_log = self.status_log = None
+        if builder.HasSubsystemNamed("ball_flight_estimator"):
+            estimator = builder.GetSubsystemByName("ball_flight_estimator")
+            self.estimator_log = builder.AddNamedSystem("demo_estimate_logger",
+                                                        VectorLogSink(6, 1.0 / 60.0))
+            builder.Connect(estimator.GetOutputPort("state"),
+                            self.estimator_log.get_input_port())
+            self.status_log = builder.AddNamedSystem("demo_status_logger",
+                                                     VectorLogSink(2, 1.0 / 60.0))
+            builder.Connect(estimator.GetOutputPort("status"), self.status_log.get_input_port())
+        self.player_name = next((name for name in ("analytical_player", "momp_player")
+                                 if builder.HasSubsystemNamed(name)), None)
+
+    def _logs(self):
+        return [log for log in (self.ball_log, self.estimator_log, self.status_log) if log]
+
+    def clear(self, context) -> None:
+        for log in self._logs():
+            log.FindMutableLog(context).Clear()
+
+    def extract(self, diagram, context, outcome) -> dict:
+        ball = self.ball_log.FindLog(context)
+        t, x = ball.sample_times(), ball.data().T
+        true_hit = true_crossing(t, x, outcome.hit_time)
+        features = [math.nan] * 24
+        if self.estimator_log is not None:
+            states = self.estimator_log.FindLog(context).data().T
+            status = self.status_log.FindLog(context).data().T
+            frames = observation_frames(states, status[:, 0] > 0.5)
+            if frames is not None:
+                features = states[frames].reshape(-1).tolist()
+        record = {"features": features, "true_hit": true_hit, "stimulus": NAN7, "q_hit": NAN7,
+                  "qd_hit": NAN7, "durations": [0.0] * len(STAGES),
+                  "trajectory": np.zeros((0, 23)), **_outcome_fields(outcome)}
+        if self.player_name is None:
+            return record
+        player = diagram.GetSubsystemByName(self.player_name)
+        state = player.player_state(player.GetMyContextFromRoot(context))
+        stroke = state.stroke
+        if stroke is None:
+            return record
+        record.update(stimulus=[*stroke.p_hit, *stroke.v_hit, stroke.t_hit],
+                      q_hit=list(stroke.q_hit), qd_hit=list(stroke.qd_hit))
+        record["trajectory"], record["durations"] = sample_stages(state.plan, stroke.t_hit)
+        return record
+
+
+_MODEL = CompliantBounceBallModel(dt=1e-3)
+
+
+def true_crossing(t, x, hit_time: float | None) -> list[float]:
+    """The true ball state (p, v, t) where it crosses the virtual hitting plane, from the logged
+    plant states x = (quaternion, p, omega, v). A ball struck just before the plane (the racket
+    meets it at the blade face) is carried the last few centimetres by the ball model from its
+    last sample before the hit."""
+    before = t < hit_time if hit_time is not None else np.ones(len(t), dtype=bool)
+    crossing = plane_crossing_from_samples(t[before], x[before, 4:7], x[before, 10:13],
+                                           PLANES.hitting_y)
+    if crossing is not None:
+        return [*crossing[1], *crossing[2], crossing[0]]
+    if not before.any():
+        return NAN7
+    k = int(np.flatnonzero(before)[-1])
+    state = np.r_[x[k, 4:7], x[k, 10:13], x[k, 7:10]]
+    hit = _MODEL.predict_plane(state, PLANES.hitting_y, max_time=0.2)
+    return NAN7 if hit is None else [*hit.position, *hit.velocity, t[k] + hit.t]
+
+
+def _outcome_fields(outcome) -> dict:
+    landing = outcome.landing or (math.nan, math.nan)
+    return {"hit": outcome.hit, "returned": outcome.returned, "on_target": outcome.on_target,
+            "reward": outcome.reward, "landing": list(landing)}
+
+
+def sample_stages(plan, t_hit: float) -> tuple[np.ndarray, list[float]]:
+    """The executed stroke sampled at 500 Hz, each stage on a grid ending at the stage's end, as
+    rows (t, stage, q (7), q_dot (7), q_ddot (7)), and each stage's duration, in :data:`STAGES`
+    order. Preparation spans its re-planned
+    segments; awaiting is the return to the awaiting posture after the follow-through."""
+    spans = {}
+    for stage, seg in plan.segments:
+        lo, hi = spans.get(stage, (seg.t0, seg.t_end))
+        spans[stage] = (min(lo, seg.t0), max(hi, seg.t_end))
+    if HITTING in spans:
+        spans[HITTING] = (spans[HITTING][0], t_hit)
+    if AWAITING in spans and FOLLOW_THROUGH in spans:
+        spans[AWAITING] = (spans[FOLLOW_THROUGH][1], spans[AWAITING][1])  # the return only
+    rows = []
+    durations = []
+    for index, stage in enumerate(STAGES):
+        lo, hi = spans.get(stage, (0.0, 0.0))
+        durations.append(max(0.0, hi - lo))
+        if hi <= lo or stage not in (PREPARATION, HITTING, FOLLOW_THROUGH, AWAITING):
+            continue
+        # The grid ends exactly at the stage's end (t_hit for the hitting stage).
+        for t in hi - np.arange(0.0, hi - lo + 1e-9, 1.0 / SAMPLE_RATE)[::-1]:
+            q, qd, qdd = plan.evaluate(t)
+            rows.append(np.r_[t, index, q, qd, qdd])
+    return (np.array(rows) if rows else np.zeros((0, 23))), durations
