@@ -12,7 +12,9 @@ Per camera frame, while the ball comes toward the robot and the hitting stage ha
 3. solves the arm: the hitting configuration theta_hit that puts the racket centre at
    p_hit - (R + t/2) n with that normal n (so that the ball's centre, at p_hit, touches the blade
    face of thickness t just then), closest to a comfort posture, and theta_dot_hit that gives the
-   racket velocity (:class:`tt_drake.systems.hitting_ik.HittingIK`);
+   blade's velocity with the racket free to rotate (the contact is at the blade centre; holding
+   it still would make the wrist counter-rotate at 10+ rad/s)
+   (:class:`tt_drake.systems.hitting_ik.HittingIK`);
 4. re-plans the stages from the current desired state (:func:`tt_drake.stages.plan_stroke`).
 
 It stops re-planning once the hitting stage has begun (paper section III-A). A re-plan is
@@ -123,20 +125,21 @@ class StrokePlanner:
         return StagePlan([(AWAITING, Quintic.fit(t, 1.0, self.q_await, zero, zero,
                                                   self.q_await, zero, zero))])
 
-    def predict(self, state6, t_state: float, previous: Stroke | None = None):
-        """Stimulus (p_hit, v_hit, t_hit absolute) and the ball's spin there, or None.
+    def predict(self, state6, t_state: float, bounce_spin=None):
+        """Stimulus (p_hit, v_hit, t_hit absolute), the ball's spin there and whether the
+        prediction went through the bounce; or None.
 
-        An estimate taken after the bounce starts the model with the spin predicted before it."""
+        The estimator does not see spin: an estimate taken after the bounce starts the model with
+        ``bounce_spin``, the spin an earlier prediction through the bounce gave."""
         state6 = np.asarray(state6, dtype=float)
         if state6[4] >= 0.0 or state6[1] <= PLANES.hitting_y:
             return None  # not coming toward the robot, or already past the plane
-        spin = np.zeros(3)
-        hit = self.model.predict_plane(np.r_[state6, spin], PLANES.hitting_y)
-        if hit is not None and not hit.bounces and previous is not None:
-            hit = self.model.predict_plane(np.r_[state6, previous.spin], PLANES.hitting_y)
+        hit = self.model.predict_plane(np.r_[state6, np.zeros(3)], PLANES.hitting_y)
+        if hit is not None and not hit.bounces and bounce_spin is not None:
+            hit = self.model.predict_plane(np.r_[state6, bounce_spin], PLANES.hitting_y)
         if hit is None:
             return None
-        return hit.position, hit.velocity, t_state + hit.t, hit.spin
+        return hit.position, hit.velocity, t_state + hit.t, hit.spin, bool(hit.bounces)
 
     def stroke(self, p_hit, v_hit, t_hit, spin, previous: Stroke | None) -> Stroke | None:
         """Aim, racket and arm for a stimulus; None if the arm cannot reach it, or if the
@@ -152,19 +155,22 @@ class StrokePlanner:
         seed = previous.q_hit if previous is not None else None
         # The ball touches the blade face when its centre is R + t/2 in front of the blade centre.
         contact_offset = BALL.radius + 0.5 * wp.RACKET.blade_thickness
-        # Each flight time asks for another racket normal: take the best one the arm reaches.
+        # Each flight time asks for another racket normal and speed: take the best one the arm
+        # reaches within its joint speed limits.
         for aim in aim_candidates(p_hit, v_hit, (cfg.target_x, cfg.target_y),
                                   flight_times=times, spin=spin):
             racket = racket_for_return(v_hit, aim.v_out, spin)
             ik = self.arm.solve(np.asarray(p_hit) - contact_offset * racket.normal,
                                 racket.normal, q_seed=seed)
-            if ik.success:
+            if not ik.success:
+                continue
+            qd_hit = self.arm.joint_velocities_free_spin(ik.q, racket.velocity)
+            if np.all(np.abs(qd_hit) <= self.limits.velocity):
                 break
         else:
             return None
         if close and (np.abs(ik.q - previous.q_hit).max() > self.config.max_branch_change):
             return None  # the solver jumped to another arm configuration: keep the last stroke
-        qd_hit = self.arm.joint_velocities(ik.q, racket.velocity)
         replans = previous.replans + 1 if previous is not None else 1
         return Stroke(np.asarray(p_hit), np.asarray(v_hit), float(t_hit), np.asarray(spin),
                       aim.v_out,
@@ -211,10 +217,12 @@ class StrokePlanner:
 
 
 class _PlayerState(Immutable):
-    __slots__ = ("plan", "stroke", "committed")
+    __slots__ = ("plan", "stroke", "committed", "bounce_spin")
 
-    def __init__(self, plan: StagePlan, stroke: Stroke | None = None, committed: bool = False):
+    def __init__(self, plan: StagePlan, stroke: Stroke | None = None, committed: bool = False,
+                 bounce_spin: np.ndarray | None = None):
         self.plan, self.stroke, self.committed = plan, stroke, committed
+        self.bounce_spin = bounce_spin
 
 
 class AnalyticalPlayer(LeafSystem):
@@ -246,25 +254,34 @@ class AnalyticalPlayer(LeafSystem):
         plan = old.plan
         hit_segment = next((seg for stage, seg in plan.segments if stage == HITTING), None)
         if hit_segment is not None and now >= hit_segment.t0:
-            new = _PlayerState(plan, old.stroke, committed=True)
+            new = _PlayerState(plan, old.stroke, committed=True, bounce_spin=old.bounce_spin)
             state.get_mutable_abstract_state(self._state_index).set_value(new)
             return
         status = self._status.Eval(context)
         if status[0] < 0.5:
             return
         prediction = self.planner.predict(self._estimate.Eval(context), float(status[1]),
-                                          old.stroke)
+                                          old.bounce_spin)
         if prediction is None:
             return
-        p_hit, v_hit, t_hit, spin = prediction
-        if t_hit - now < 0.05 or not self.planner.needs_replan(old.stroke, p_hit, t_hit):
+        p_hit, v_hit, t_hit, spin, through_bounce = prediction
+        bounce_spin = spin if through_bounce else old.bounce_spin
+        if bounce_spin is not old.bounce_spin:
+            old = _PlayerState(old.plan, old.stroke, old.committed, bounce_spin)
+            state.get_mutable_abstract_state(self._state_index).set_value(old)
+        if t_hit - now < 0.05:
             return
-        stroke = self.planner.stroke(p_hit, v_hit, t_hit, spin, old.stroke)
+        if hit_segment is not None and not self.planner.needs_replan(old.stroke, p_hit, t_hit):
+            return  # a stroke is planned and the prediction has not moved
+        if hit_segment is None and not self.planner.needs_replan(old.stroke, p_hit, t_hit):
+            stroke = old.stroke  # waiting: same stroke, but decide again whether to start
+        else:
+            stroke = self.planner.stroke(p_hit, v_hit, t_hit, spin, old.stroke)
         if stroke is None:
             return
         new_plan = self.planner.plan(now, plan, stroke)
         state.get_mutable_abstract_state(self._state_index).set_value(
-            _PlayerState(plan if new_plan is None else new_plan, stroke))
+            _PlayerState(plan if new_plan is None else new_plan, stroke, False, bounce_spin))
 
     def _calc_state(self, context, output):
         q, qd, _ = self.player_state(context).plan.evaluate(context.get_time())

@@ -221,3 +221,18 @@ def test_reachability_example_writes_its_figure(tmp_path, capsys):
             assert _in_unreachable_corner(xs[ix], zs[iz])
     assert out["nominal"]["success"].sum() >= 87
     assert "| nominal |" in capsys.readouterr().out
+
+
+def test_free_spin_velocities_give_the_blade_velocity_with_smaller_joint_speeds():
+    from tt_drake.systems.hitting_ik import HITTING_COMFORT, HittingIK
+
+    ik = HittingIK()
+    rng = np.random.default_rng(3)
+    for _ in range(10):
+        q = np.asarray(HITTING_COMFORT) + rng.uniform(-0.2, 0.2, 7)
+        v = rng.uniform(-1.0, 1.0, 3) + np.array([0.0, 2.5, 0.5])
+        free = ik.joint_velocities_free_spin(q, v, null_gain=0.0)
+        held = ik.joint_velocities(q, v, null_gain=0.0)
+        np.testing.assert_allclose(ik.racket_velocity(q, free)[3:], v, atol=1e-9)
+        # minimum norm over all joint velocities giving v, so never above the held-racket one
+        assert np.linalg.norm(free) <= np.linalg.norm(held) + 1e-12
