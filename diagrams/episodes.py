@@ -148,11 +148,25 @@ class ServeDiagram:
             from tt_drake.diagrams.demonstrations import DemonstrationRecorder
 
             self.recorder = DemonstrationRecorder(builder, world, scenario)
-        self.ball_logger = None
+        self.ball_logger = self.estimate_logger = self.prediction_logger = None
         if log_ball:
             self.ball_logger = builder.AddNamedSystem("ball_logger", VectorLogSink(13, 1.0 / 120))
             builder.Connect(plant.get_state_output_port(world.ball),
                             self.ball_logger.get_input_port())
+            # What the robot believes: the estimated path and the predicted hitting point.
+            if builder.HasSubsystemNamed("ball_flight_estimator"):
+                estimator = builder.GetSubsystemByName("ball_flight_estimator")
+                self.estimate_logger = builder.AddNamedSystem(
+                    "estimate_logger", VectorLogSink(6, 1.0 / 60))
+                builder.Connect(estimator.GetOutputPort("state"),
+                                self.estimate_logger.get_input_port())
+            for name in ("analytical_player", "momp_player"):
+                if builder.HasSubsystemNamed(name):
+                    player_system = builder.GetSubsystemByName(name)
+                    self.prediction_logger = builder.AddNamedSystem(
+                        "prediction_logger", VectorLogSink(4, 1.0 / 60))
+                    builder.Connect(player_system.GetOutputPort("predicted_hit"),
+                                    self.prediction_logger.get_input_port())
         self.visualizer = None
         if meshcat is not None:
             from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
@@ -215,6 +229,7 @@ class ServeDiagram:
         path = None
         if self.ball_logger is not None:
             path = self.ball_logger.FindLog(self.context).data()[4:7].T.copy()
+            self.beliefs = self._beliefs()
         arm = None
         if self.controller is not None:
             x = self.arm_logger.FindLog(self.context).data().T
@@ -227,8 +242,25 @@ class ServeDiagram:
         return EpisodeResult(seed, list(serve.launch_state), list(crossing), duration, outcome,
                              time.perf_counter() - wall, path, arm, record)
 
+    def _beliefs(self) -> dict:
+        """Estimated ball path and predicted hitting points (with their times) of the episode."""
+        out = {}
+        if self.estimate_logger is not None:
+            log = self.estimate_logger.FindLog(self.context)
+            x = log.data().T
+            keep = np.all(np.isfinite(x[:, :3]), axis=1) & np.any(x[:, :3] != 0.0, axis=1)
+            out["estimated_path"] = x[keep, :3]
+        if self.prediction_logger is not None:
+            log = self.prediction_logger.FindLog(self.context)
+            x = log.data().T
+            valid = x[:, 3] > 0.5
+            out["prediction_times"] = log.sample_times()[valid]
+            out["predictions"] = x[valid, :3]
+        return out
+
     def _loggers(self) -> list:
         loggers = [self.ball_logger] if self.ball_logger is not None else []
+        loggers += [log for log in (self.estimate_logger, self.prediction_logger) if log]
         if self.controller is not None:
             loggers += [self.arm_logger, self.torque_logger]
         return loggers

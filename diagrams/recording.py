@@ -28,6 +28,32 @@ def make_meshcat():
     return meshcat
 
 
+ESTIMATE_COLOUR = (0.2, 0.6, 1.0, 0.9)
+PREDICTION_COLOUR = (1.0, 0.0, 1.0, 0.8)
+
+
+def draw_beliefs(meshcat, animation, index: int, beliefs: dict) -> None:
+    """What the robot believed: the estimated ball path (blue line) and the predicted hitting
+    point (magenta sphere), moved in the recording each time the prediction changed."""
+    from pydrake.geometry import Rgba, Sphere
+    from pydrake.math import RigidTransform
+
+    path = beliefs.get("estimated_path")
+    if path is not None and len(path) > 1:
+        meshcat.SetLine(f"/episodes/{index:04d}/estimated_path", np.asarray(path).T, 2.0,
+                        Rgba(*ESTIMATE_COLOUR))
+    times, points = beliefs.get("prediction_times"), beliefs.get("predictions")
+    if times is None or len(times) == 0:
+        return
+    name = f"/episodes/{index:04d}/predicted_hit"
+    meshcat.SetObject(name, Sphere(0.025), Rgba(*PREDICTION_COLOUR))
+    previous = None
+    for t, p in zip(times, points, strict=True):
+        if previous is None or np.linalg.norm(p - previous) > 1e-4:
+            animation.SetTransform(animation.frame(t), name, RigidTransform(p))
+            previous = p
+
+
 def draw_episode(meshcat, index: int, result: EpisodeResult) -> None:
     """The ball's path as a line and the landing point as a small sphere."""
     from pydrake.geometry import Rgba, Sphere

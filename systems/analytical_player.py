@@ -27,7 +27,8 @@ what the camera sees: its inputs are the estimator's outputs, never the true bal
 Ports of :class:`AnalyticalPlayer`: inputs ``estimated_state`` (6: p, v) and ``estimator_status``
 (2: valid, time of the estimate); outputs ``desired_state`` (14: q, q_dot) and
 ``desired_acceleration`` (7) for the InverseDynamicsController, ``stage`` (1: index into
-:data:`tt_drake.stages.STAGES`) and ``stroke`` (the :class:`Stroke` planned, for datasets).
+:data:`tt_drake.stages.STAGES`), ``stroke`` (the :class:`Stroke` planned, for datasets) and
+``predicted_hit`` (4: p_hit and a valid flag, for drawing).
 The output ports evaluate the stored plan (a quintic per joint): O(1) work per integrator step.
 """
 
@@ -242,6 +243,7 @@ class AnalyticalPlayer(LeafSystem):
         self.DeclareVectorOutputPort("stage", BasicVector(1), self._calc_stage)
         self.DeclareAbstractOutputPort("stroke", lambda: AbstractValue.Make(object()),
                                        self._calc_stroke)
+        self.DeclareVectorOutputPort("predicted_hit", BasicVector(4), self._calc_predicted_hit)
 
     def player_state(self, context) -> _PlayerState:
         return context.get_abstract_state(self._state_index).get_value()
@@ -299,6 +301,16 @@ class AnalyticalPlayer(LeafSystem):
 
     def _calc_stroke(self, context, output):
         output.set_value(self.player_state(context).stroke)
+
+    def _calc_predicted_hit(self, context, output):
+        """(p_hit, valid): where the current stroke expects to meet the ball (for drawing)."""
+        stroke = self.player_state(context).stroke
+        out = output.get_mutable_value()
+        if stroke is None:
+            out[:] = 0.0
+        else:
+            out[:3] = stroke.p_hit
+            out[3] = 1.0
 
 
 
