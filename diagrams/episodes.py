@@ -25,7 +25,7 @@ from pydrake.systems.primitives import ConstantVectorSource, VectorLogSink
 from tt_drake.arm_metrics import arm_metrics
 from tt_drake.diagrams.scenario import Scenario
 from tt_drake.referee_rules import Outcome
-from tt_drake.systems.aerodynamics import Aerodynamics
+from tt_drake.systems.aerodynamics import add_aerodynamics
 from tt_drake.systems.ball_launcher import BallLauncher
 from tt_drake.systems.referee import Referee
 from tt_drake.systems.world import World, add_world, make_simulator, set_ball_state
@@ -117,11 +117,7 @@ class ServeDiagram:
         self.world = world
         plant = world.plant
         self.launcher = builder.AddNamedSystem("ball_launcher", BallLauncher(scenario.launcher))
-        aero = builder.AddNamedSystem("aerodynamics", Aerodynamics(
-            plant.num_velocities(), world.ball_body.floating_velocities_start_in_v(),
-            scenario.aerodynamics))
-        builder.Connect(plant.get_state_output_port(world.ball), aero.get_input_port(0))
-        builder.Connect(aero.get_output_port(0), plant.get_applied_generalized_force_input_port())
+        add_aerodynamics(builder, world, scenario.aerodynamics)
         self.referee = builder.AddNamedSystem("referee", self._make_referee())
         builder.Connect(plant.get_state_output_port(world.ball), self.referee.get_input_port(0))
         builder.Connect(plant.get_body_poses_output_port(), self.referee.get_input_port(1))

@@ -32,6 +32,7 @@ import numpy as np
 from tt_drake.ball_model import BallModel, CompliantBounceBallModel
 from tt_drake.camera_model import CameraConfig, CameraModel
 from tt_drake.constants import PLANES
+from tt_drake.diagrams.ball_world import BallOnlyWorld
 from tt_drake.estimation import EstimatorConfig, nees, run_filter
 from tt_drake.hitting_point import (
     OUTPUT_NAMES,
@@ -58,44 +59,14 @@ class PredictorError(ValueError):
 
 # -- Drake: one serve in a ball-only world ---------------------------------------------------------
 
-class BallOnlySimulation:
-    """Table, net, floor, ball and aerodynamics, logged at ``FRAME_RATE * SUBSAMPLES``."""
+class BallOnlySimulation(BallOnlyWorld):
+    """The ball-only world logged at ``FRAME_RATE * SUBSAMPLES``; ``run`` gives (t, p, v)."""
 
     def __init__(self):
-        from pydrake.systems.framework import DiagramBuilder
-        from pydrake.systems.primitives import VectorLogSink
-
-        from tt_drake.systems.aerodynamics import Aerodynamics
-        from tt_drake.systems.world import WorldConfig, add_world, make_simulator
-
-        builder = DiagramBuilder()
-        self.config = WorldConfig(with_robot=False)
-        self.world = add_world(builder, self.config)
-        plant = self.world.plant
-        aero = builder.AddSystem(Aerodynamics(plant.num_velocities(),
-                                              self.world.ball_body.floating_velocities_start_in_v()))
-        builder.Connect(plant.get_state_output_port(self.world.ball), aero.get_input_port(0))
-        builder.Connect(aero.get_output_port(0), plant.get_applied_generalized_force_input_port())
-        self.logger = builder.AddSystem(VectorLogSink(13, 1.0 / (FRAME_RATE * SUBSAMPLES)))
-        builder.Connect(plant.get_state_output_port(self.world.ball), self.logger.get_input_port())
-        self.diagram = builder.Build()
-        self.simulator = make_simulator(self.diagram, self.config)
-        self.context = self.simulator.get_mutable_context()
-        self._initial = self.context.Clone()
+        super().__init__(log_period=1.0 / (FRAME_RATE * SUBSAMPLES))
 
     def run(self, launch_state, duration: float):
-        """(t, p, v) samples of the ball from ``launch_state`` (p, v, omega) for ``duration`` s."""
-        from tt_drake.systems.world import set_ball_state
-
-        self.context.SetTimeStateAndParametersFrom(self._initial)
-        plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
-        set_ball_state(self.world, plant_context, np.asarray(launch_state, dtype=float))
-        self.logger.FindMutableLog(self.context).Clear()
-        self.simulator.Initialize()
-        self.simulator.AdvanceTo(duration)
-        log = self.logger.FindLog(self.context)
-        data = log.data()
-        return log.sample_times().copy(), data[4:7].T.copy(), data[10:13].T.copy()
+        return super().run(launch_state, duration)[:3]
 
 
 @dataclass

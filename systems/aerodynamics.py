@@ -52,3 +52,15 @@ class Aerodynamics(LeafSystem):
         out[i] = -kd * vx + c * (wy * vz - wz * vy)
         out[i + 1] = -kd * vy + c * (wz * vx - wx * vz)
         out[i + 2] = -kd * vz + c * (wx * vy - wy * vx)
+
+
+def add_aerodynamics(builder, world, config: AerodynamicsConfig | None = None,
+                     name: str = "aerodynamics") -> Aerodynamics:
+    """Add :class:`Aerodynamics` for ``world``'s ball and wire it: ball state in, the plant's
+    applied generalized force out."""
+    plant = world.plant
+    aero = builder.AddNamedSystem(name, Aerodynamics(
+        plant.num_velocities(), world.ball_body.floating_velocities_start_in_v(), config))
+    builder.Connect(plant.get_state_output_port(world.ball), aero.get_input_port(0))
+    builder.Connect(aero.get_output_port(0), plant.get_applied_generalized_force_input_port())
+    return aero

@@ -5,14 +5,13 @@ import numpy as np
 import pytest
 
 from tt_drake.constants import HITTING_REGION, PLANES, TABLE
+from tt_drake.diagrams.ball_world import BallOnlyWorld
 from tt_drake.serves import ServeSampler
-
-from .ball_world import BallWorld
 
 
 @pytest.fixture(scope="module")
 def world():
-    return BallWorld(log_period=1e-3)
+    return BallOnlyWorld(log_period=1e-3)
 
 
 @pytest.mark.parametrize("distribution", ["default", "real", "fixed"])

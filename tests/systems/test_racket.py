@@ -6,7 +6,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, VectorLogSink
 
 from tt_drake import wam_params
-from tt_drake.systems.aerodynamics import Aerodynamics
+from tt_drake.systems.aerodynamics import add_aerodynamics
 from tt_drake.systems.wam import add_wam_controller, awaiting_state, racket_pose
 from tt_drake.systems.world import WorldConfig, add_world, make_simulator, set_ball_state
 
@@ -19,10 +19,7 @@ class ArmWorld:
         self.config = WorldConfig()
         self.world = world = add_world(builder, self.config)
         plant = world.plant
-        aero = builder.AddSystem(Aerodynamics(plant.num_velocities(),
-                                              world.ball_body.floating_velocities_start_in_v()))
-        builder.Connect(plant.get_state_output_port(world.ball), aero.get_input_port(0))
-        builder.Connect(aero.get_output_port(0), plant.get_applied_generalized_force_input_port())
+        add_aerodynamics(builder, world)
         controller = add_wam_controller(builder, plant, world.robot)
         hold = builder.AddSystem(ConstantVectorSource(awaiting_state()))
         builder.Connect(hold.get_output_port(), controller.get_input_port_desired_state())

@@ -111,16 +111,13 @@ def test_diagram_matches_the_offline_pipeline():
     assert offline.ok
 
     sim = BallOnlySimulation()  # reuse its recipe, add the vision systems to a new diagram
-    from tt_drake.systems.aerodynamics import Aerodynamics
+    from tt_drake.systems.aerodynamics import add_aerodynamics
     from tt_drake.systems.world import WorldConfig, add_world, make_simulator, set_ball_state
 
     builder = DiagramBuilder()
     world = add_world(builder, WorldConfig(with_robot=False))
     plant = world.plant
-    aero = builder.AddSystem(Aerodynamics(plant.num_velocities(),
-                                          world.ball_body.floating_velocities_start_in_v()))
-    builder.Connect(plant.get_state_output_port(world.ball), aero.get_input_port(0))
-    builder.Connect(aero.get_output_port(0), plant.get_applied_generalized_force_input_port())
+    add_aerodynamics(builder, world)
     cam = builder.AddSystem(BallCamera(camera))
     est = builder.AddSystem(BallFlightEstimator(estimator))
     pred = builder.AddSystem(HittingPointPredictor(physical=PhysicalPredictor()))

@@ -5,13 +5,12 @@ import pytest
 
 from tt_drake.ball_model import BallModel
 from tt_drake.constants import BALL, NET, TABLE
-
-from .ball_world import BallWorld
+from tt_drake.diagrams.ball_world import BallOnlyWorld
 
 
 @pytest.fixture(scope="module")
 def world():
-    return BallWorld()
+    return BallOnlyWorld()
 
 
 def rebound_height(world, drop: float) -> float:
