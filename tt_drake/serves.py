@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from tt_drake.ball_model import BallModel, PlaneCrossing
-from tt_drake.constants import HITTING_REGION, PLANES, TABLE
+from tt_drake.constants import BALL, HITTING_REGION, PLANES, TABLE
 
 DISTRIBUTIONS = ("default", "real", "fixed")
 
@@ -75,19 +75,32 @@ class Serve:
         return float(self.crossing.bounces[-1].position[1])
 
 
+#: Net clearance (m) a served ball must have in the model: the net's collision box is 20 mm
+#: thick and the model sees a plane, so a ball grazing within a centimetre touches it in Drake.
+NET_MARGIN = 0.01
+#: A served ball must bounce at least this far inside the table's edges: nearer, it meets the
+#: edge of the table top (an "edge ball", contact normal not vertical) and bounces otherwise.
+EDGE_MARGIN = BALL.radius
+
+
 def serve_is_valid(model: BallModel, state: np.ndarray, region_margin: float = 0.0):
     """The model's crossing if the serve bounces exactly once on the robot's half (after any
-    bounces on the opponent's half), clears the net and crosses the hitting plane inside the region
-    (grown by ``region_margin``); otherwise None."""
+    bounces on the opponent's half) at least :data:`EDGE_MARGIN` inside the table's edges, clears
+    the net by :data:`NET_MARGIN` and crosses the hitting plane inside the region (grown by
+    ``region_margin``); otherwise None."""
     crossing = model.predict_plane(state, PLANES.hitting_y)
     if crossing is None:
         return None
     robot_half = [b for b in crossing.bounces if b.position[1] < 0.0]
     if len(robot_half) != 1 or crossing.bounces[-1] is not robot_half[0]:
         return None
+    x_b, y_b = robot_half[0].position[0], robot_half[0].position[1]
+    if (abs(x_b) > 0.5 * TABLE.width - EDGE_MARGIN
+            or abs(y_b) > 0.5 * TABLE.length - EDGE_MARGIN):
+        return None
     if state[1] > 0.0:
         clearance = model.net_clearance(state)
-        if clearance is None or clearance < 0.0:
+        if clearance is None or clearance < NET_MARGIN:
             return None
     x, z = crossing.position[0], crossing.position[2]
     r = HITTING_REGION
