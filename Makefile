@@ -27,7 +27,7 @@ test-slow: $(STAMP)
 
 demo: $(STAMP)
 	mkdir -p $(OUT)
-	$(BIN)/tt-drake serve --player idle --serves 5 --seed 1 --html $(OUT)/demo.html --json $(OUT)/demo.json
+	$(BIN)/tt-drake serve --player analytical --serves 5 --seed 1 --html $(OUT)/demo.html --json $(OUT)/demo.json
 
 bench: $(STAMP)
 	mkdir -p $(OUT)
