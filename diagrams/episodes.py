@@ -156,6 +156,10 @@ class ServeDiagram:
                     "estimate_logger", VectorLogSink(6, 1.0 / 60))
                 builder.Connect(estimator.GetOutputPort("state"),
                                 self.estimate_logger.get_input_port())
+                self.status_logger = builder.AddNamedSystem(
+                    "estimate_status_logger", VectorLogSink(2, 1.0 / 60))
+                builder.Connect(estimator.GetOutputPort("status"),
+                                self.status_logger.get_input_port())
             for name in ("analytical_player", "momp_player"):
                 if builder.HasSubsystemNamed(name):
                     player_system = builder.GetSubsystemByName(name)
@@ -242,10 +246,9 @@ class ServeDiagram:
         """Estimated ball path and predicted hitting points (with their times) of the episode."""
         out = {}
         if self.estimate_logger is not None:
-            log = self.estimate_logger.FindLog(self.context)
-            x = log.data().T
-            keep = np.all(np.isfinite(x[:, :3]), axis=1) & np.any(x[:, :3] != 0.0, axis=1)
-            out["estimated_path"] = x[keep, :3]
+            x = self.estimate_logger.FindLog(self.context).data().T
+            tracking = self.status_logger.FindLog(self.context).data()[0] > 0.5
+            out["estimated_path"] = x[tracking & np.all(np.isfinite(x[:, :3]), axis=1), :3]
         if self.prediction_logger is not None:
             log = self.prediction_logger.FindLog(self.context)
             x = log.data().T
@@ -257,6 +260,8 @@ class ServeDiagram:
     def _loggers(self) -> list:
         loggers = [self.ball_logger] if self.ball_logger is not None else []
         loggers += [log for log in (self.estimate_logger, self.prediction_logger) if log]
+        if self.estimate_logger is not None:
+            loggers.append(self.status_logger)
         if self.controller is not None:
             loggers += [self.arm_logger, self.torque_logger]
         return loggers

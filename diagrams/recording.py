@@ -25,6 +25,8 @@ def make_meshcat():
 
     meshcat = Meshcat(MeshcatParams(host="localhost"))
     meshcat.SetProperty("/Background", "visible", False)
+    # From the robot's forehand side, behind it: the strokes and the ball's flight both show.
+    meshcat.SetCameraPose([2.0, -3.6, 1.75], [0.0, -0.8, 0.95])
     return meshcat
 
 
