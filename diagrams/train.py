@@ -1,0 +1,182 @@
+"""``tt-drake train library|crkr``: the learned player's artefacts from a teacher dataset.
+
+    tt-drake train library --data DIR --out FILE [--primitives 300]
+    tt-drake train crkr    --data DIR --out FILE [--samples 2500]
+
+DIR is a dataset written by ``tt-drake collect`` (:func:`tt_drake.diagrams.collect.load_dataset`).
+Only the teacher's successful strokes (legal returns) are used.
+
+library (paper section III-C): one hitting primitive per successful stroke, imitated from its
+hitting-stage samples (Eqs. 7-8, Algorithm 2), up to ``--primitives`` of them (the first ones in
+the dataset's serve order; serves are independent draws). Its stimulus x_i is the teacher's
+prediction (p_hit, v_hit) at the hitting plane (6-D, the dataset's ``stimulus[:6]``): what the
+player sees at run time is a prediction too, not the true crossing. Gating bandwidths by Scott's
+rule (:func:`tt_drake.momp.scott_bandwidths`); 1 for p_hit's y, constant on the plane. Plus one DMP
+per other stage (section III-A), each imitated from one representative demonstration: among the
+successful serves, the one whose stage duration is the median (preparation: the swing-back, from
+rest to rest; follow-through: from (theta_hit, theta_dot_hit) to rest; awaiting: the return to the
+awaiting posture after the follow-through).
+
+crkr (paper section II-C.2): the map from the stimulus s = (p_hit, v_hit) to the hitting
+configuration (theta_hit, theta_dot_hit), 14 outputs sharing one kernel (one model per output, as
+in the paper), with the cost of each sample the squared distance of theta_hit from the hitting
+comfort posture (:data:`tt_drake.systems.hitting_ik.HITTING_COMFORT`, the teacher's IK uses the
+same one) plus a floor of :data:`COST_FLOOR`, around the targets' mean as prior mean
+(:class:`tt_drake.learned_player.ConfigurationModel`). Kernel bandwidth per input
+``CRKR_BANDWIDTH_SCALE n^(-1/9)`` times its standard deviation (Scott-style shrinking with the
+sample count n for 5 varying inputs; the constant 3 = 2 sd at n = 35 was the best of 0.5/1/2 sd on
+a 35/15 split of 50 teacher strokes: held-out mean error 0.04 rad in theta_hit, 0.16 rad/s in
+theta_dot_hit, against 0.32 for the mean alone); ``lambda`` :data:`CRKR_LAMBDA` (0.01 and 0.1
+were equal there).
+
+Both files carry the scenario's name and the hitting plane's y, and a format version; the player
+refuses a file trained for another scenario (:class:`LearnedArtefactError`).
+"""
+
+from pathlib import Path
+
+import numpy as np
+
+from tt_drake.constants import PLANES
+from tt_drake.crkr import comfort_cost
+from tt_drake.diagrams.collect import DatasetError, load_dataset
+from tt_drake.dmp import HittingDMP
+from tt_drake.imitation import Demonstration
+from tt_drake.learned_player import (
+    ConfigurationModel,
+    StagePrimitive,
+    save_configuration_model,
+    save_player_library,
+)
+from tt_drake.momp import MotorPrimitiveLibrary, scott_bandwidths
+from tt_drake.outputs import check_writable
+from tt_drake.stages import AWAITING, FOLLOW_THROUGH, HITTING, PREPARATION, STAGES
+
+COST_FLOOR = 0.05  # rad^2
+CRKR_BANDWIDTH_SCALE = 3.0
+CRKR_LAMBDA = 0.01
+MIN_SAMPLES = 20  # a stage with fewer samples (< 40 ms at 500 Hz) is not used as a demonstration
+
+
+class TrainError(ValueError):
+    """A dataset that cannot train the requested artefact."""
+
+
+def stage_runs(rows: np.ndarray) -> list[tuple[int, np.ndarray]]:
+    """Consecutive rows (in time order) of one serve's trajectory with the same stage index:
+    [(stage, rows)]."""
+    rows = rows[np.argsort(rows[:, 0], kind="stable")]
+    stage = rows[:, 1].astype(int)
+    cuts = np.flatnonzero(np.diff(stage)) + 1
+    return [(int(part[0, 1]), part) for part in np.split(rows, cuts) if len(part)]
+
+
+def _spread(x: np.ndarray) -> np.ndarray:
+    """Standard deviation per stimulus dimension, 0 for a constant one (p_hit's y is the hitting
+    plane's: its round-off spread must not become a kernel bandwidth of 1e-12 m)."""
+    sd = x.std(axis=0) if len(x) > 1 else np.zeros(x.shape[1])
+    return np.where(sd > 1e-6, sd, 0.0)
+
+
+def _demo(rows: np.ndarray) -> Demonstration:
+    return Demonstration(rows[:, 0] - rows[0, 0], rows[:, 2:9], rows[:, 9:16], rows[:, 16:23])
+
+
+def _successful(data: dict) -> np.ndarray:
+    ok = np.flatnonzero(data["returned"] > 0.5)
+    if ok.size == 0:
+        raise TrainError("the dataset has no successful (returned) teacher stroke")
+    return ok
+
+
+def _load(folder) -> dict:
+    data = load_dataset(folder)
+    if "trajectory" not in data or len(data["returned"]) == 0:
+        raise DatasetError(f"{folder}: no serves")
+    return data
+
+
+def _meta(data: dict, folder, used: int) -> dict:
+    m = data["manifest"]
+    return {"scenario": m["scenario"], "distribution": m["distribution"],
+            "hitting_y": PLANES.hitting_y, "dataset": str(folder), "dataset_seed": m["seed"],
+            "dataset_serves": m["serves"], "teacher": m["player"], "samples": int(used)}
+
+
+def extract_strokes(data: dict, limit: int | None = None) -> dict:
+    """Per successful serve (up to ``limit`` hitting demonstrations): the hitting demonstrations
+    with their stimuli, and the candidate demonstrations of the other stages."""
+    by_serve = data["trajectory_serve"]
+    hit_idx = STAGES.index(HITTING)
+    follow_idx, await_idx = STAGES.index(FOLLOW_THROUGH), STAGES.index(AWAITING)
+    prep_idx = STAGES.index(PREPARATION)
+    out = {"hitting": [], "stimuli": [], PREPARATION: [], FOLLOW_THROUGH: [], AWAITING: []}
+    for i in _successful(data):
+        runs = stage_runs(data["trajectory"][by_serve == i])
+        for k, (stage, rows) in enumerate(runs):
+            if len(rows) < MIN_SAMPLES:
+                continue
+            if stage == hit_idx and (limit is None or len(out["hitting"]) < limit):
+                out["hitting"].append(_demo(rows))
+                out["stimuli"].append(data["stimulus"][i, :6])
+            elif stage == prep_idx:
+                out[PREPARATION].append(_demo(rows))
+            elif stage == follow_idx:
+                out[FOLLOW_THROUGH].append(_demo(rows))
+            elif stage == await_idx and k > 0 and runs[k - 1][0] == follow_idx:
+                out[AWAITING].append(_demo(rows))
+    return out
+
+
+def _representative(demos: list[Demonstration], stage: str) -> Demonstration:
+    if not demos:
+        raise TrainError(f"no usable {stage} demonstration in the successful strokes")
+    taus = np.array([d.tau for d in demos])
+    return demos[int(np.argsort(taus)[len(taus) // 2])]
+
+
+def train_library(data_dir, out, primitives: int = 300, dmp: HittingDMP | None = None) -> dict:
+    """Write the primitive library (hitting primitives + stage DMPs); returns a summary."""
+    check_writable(out)
+    dmp = dmp or HittingDMP()
+    data = _load(data_dir)
+    strokes = extract_strokes(data, limit=primitives)
+    if not strokes["hitting"]:
+        raise TrainError(f"{data_dir}: no usable hitting demonstration")
+    x = np.array(strokes["stimuli"])
+    h = np.where(_spread(x) > 0, scott_bandwidths(x), 1.0)
+    library = MotorPrimitiveLibrary.from_demonstrations(dmp, strokes["hitting"], x, h)
+    stages = {stage: StagePrimitive.imitate(dmp, _representative(strokes[stage], stage))
+              for stage in (PREPARATION, FOLLOW_THROUGH, AWAITING)}
+    meta = _meta(data, data_dir, library.n_primitives)
+    save_player_library(out, library, stages, meta)
+    return {"artefact": "library", "out": str(out), "primitives": library.n_primitives,
+            "bandwidths": library.bandwidths.round(4).tolist(), **meta}
+
+
+def train_crkr(data_dir, out, samples: int = 2500) -> dict:
+    """Write the CrKR hitting-configuration model; returns a summary."""
+    from tt_drake.systems.hitting_ik import HITTING_COMFORT
+
+    check_writable(out)
+    data = _load(data_dir)
+    ok = _successful(data)[:samples]
+    x = data["stimulus"][ok, :6]
+    y = np.hstack([data["q_hit"][ok], data["qd_hit"][ok]])
+    costs = comfort_cost(data["q_hit"][ok], HITTING_COMFORT) + COST_FLOOR
+    sd = _spread(x)
+    h = CRKR_BANDWIDTH_SCALE * len(x) ** (-1.0 / 9.0) * np.where(sd > 0, sd, 1.0)
+    model = ConfigurationModel.fit(x, y, costs, h, CRKR_LAMBDA)
+    meta = {**_meta(data, data_dir, len(ok)), "inputs": "p_hit, v_hit (6)",
+            "outputs": "theta_hit (7), theta_dot_hit (7)",
+            "comfort_posture": list(HITTING_COMFORT), "cost_floor": COST_FLOOR}
+    save_configuration_model(out, model, meta)
+    return {"artefact": "crkr", "out": str(out), "samples": len(ok),
+            "bandwidths": h.round(4).tolist(), **meta}
+
+
+def format_train(summary: dict) -> str:
+    what = (f"{summary['primitives']} hitting primitives + 3 stage DMPs"
+            if summary["artefact"] == "library" else f"CrKR on {summary['samples']} samples")
+    return (f"{what} from {summary['dataset']} (scenario {summary['scenario']}, "
+            f"{summary['dataset_serves']} serves) -> {Path(summary['out'])}")

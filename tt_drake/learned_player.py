@@ -1,0 +1,360 @@
+"""The learned player's stroke as motor primitives (paper sections II-B, III-A, III-C).
+
+Numpy only. A stroke is a :class:`tt_drake.stages.StagePlan` whose segments are
+:class:`SampledSegment` objects: a DMP rollout sampled once per (re-)plan and stored as one quintic
+per sample interval, so that evaluating the plan at any time is O(1) (one Horner evaluation of a
+stored row; DESIGN.md) and q, q_dot, q_ddot are continuous inside a segment.
+
+Stages (section III-A) and what generates them:
+
+- preparation: a single DMP (Eqs. 1-5 with ``g_dot = 0``) from the current desired state to the
+  preparation posture ``q_prep = q_hit - (T_hit / 2) q_dot_hit`` (the teacher's rule, so that the
+  hitting primitives start where the demonstrations started), arriving at the hitting stage's start;
+- hitting: the mixture of motor primitives (Eq. 6, Algorithm 1) with goal ``g_f = theta_hit``,
+  ``g_dot = theta_dot_hit`` and ``tau`` the time left to ``t_hit``, started from the end of the
+  preparation (or from the current desired state if there is no time to prepare);
+- follow-through: a single DMP from ``(theta_hit, theta_dot_hit)`` to rest at
+  ``q_hit + (T_ft / 2) q_dot_hit`` (the teacher's follow-through posture), then
+- awaiting: a single DMP back to rest at the awaiting posture.
+
+Continuity at stage boundaries. Every segment starts at the previous one's end position and
+velocity (the DMP rollout takes ``y0`` and ``y_dot0``). Its start acceleration, however, is the
+DMP's, ``eta f(1) / tau^2`` (Eq. 4 with ``z = 1``: the spring is off), not the previous segment's.
+:func:`blend_start_acceleration` adds the quintic ``p(t)`` on ``[0, T_b]`` with ``p(0) = p'(0) =
+0``, ``p''(0) = a_prev - a_dmp(0)`` and ``p = p' = p'' = 0`` at ``T_b`` (default ``min(0.1 s,
+tau)``): the acceleration becomes continuous and the arrival state at ``tau`` is untouched. The
+position change it causes is at most ``0.0092 |da| T_b^2`` (the quintic's peak), e.g. 0.5 mrad for
+``da = 5 rad/s^2``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from tt_drake.artefacts import ArtefactError, load_artefact, save_artefact
+from tt_drake.crkr import CrKR
+from tt_drake.dmp import HittingDMP, Trajectory
+from tt_drake.imitation import Demonstration, imitate
+from tt_drake.momp import MotorPrimitiveLibrary
+from tt_drake.responsibility import ResponsibilityParams
+from tt_drake.stages import (
+    AWAITING,
+    FOLLOW_THROUGH,
+    HITTING,
+    PREPARATION,
+    JointLimits,
+    Quintic,
+    StagePlan,
+    StageTimes,
+    follow_through_time,
+)
+
+__all__ = ["SampledSegment", "StagePrimitive", "blend_start_acceleration", "MoMPStroke",
+           "plan_momp_stroke", "BLEND_TIME", "LearnedArtefactError", "save_player_library",
+           "load_player_library", "save_configuration_model", "load_configuration_model",
+           "ConfigurationModel"]
+
+BLEND_TIME = 0.1  # s
+_TIMES = StageTimes()
+
+
+class SampledSegment:
+    """One quintic per interval of a uniformly sampled trajectory (exact q, q_dot, q_ddot at the
+    samples, C2 in between); the same interface as :class:`tt_drake.stages.Quintic` (``t0``,
+    ``duration``, ``t_end``, ``evaluate``, ``cut``, ``sample``).
+
+    Evaluation is O(1): the interval index is ``floor((t - t0) / dt)``. Past the end it continues
+    with the end velocity at zero acceleration, like ``Quintic``.
+    """
+
+    __slots__ = ("t0", "dt", "coeffs", "duration", "_n")
+
+    def __init__(self, t0: float, dt: float, coeffs: np.ndarray, duration: float | None = None):
+        self.t0, self.dt, self.coeffs = float(t0), float(dt), coeffs
+        self._n = coeffs.shape[0]
+        self.duration = self._n * self.dt if duration is None else float(duration)
+
+    @classmethod
+    def from_trajectory(cls, t0: float, traj: Trajectory) -> SampledSegment:
+        """From a rollout on the uniform grid ``traj.t`` (starting at 0) shifted to start at t0."""
+        t = np.asarray(traj.t, dtype=float)
+        dt = float(t[1] - t[0])
+        q0, v0, a0 = traj.q[:-1], traj.qd[:-1], traj.qdd[:-1]
+        q1, v1, a1 = traj.q[1:], traj.qd[1:], traj.qdd[1:]
+        h = q1 - q0 - v0 * dt - 0.5 * a0 * dt * dt
+        dv = v1 - v0 - a0 * dt
+        da = a1 - a0
+        c3 = (10 * h - 4 * dv * dt + 0.5 * da * dt * dt) / dt**3
+        c4 = (-15 * h + 7 * dv * dt - da * dt * dt) / dt**4
+        c5 = (6 * h - 3 * dv * dt + 0.5 * da * dt * dt) / dt**5
+        coeffs = np.ascontiguousarray(np.stack([q0, v0, 0.5 * a0, c3, c4, c5], axis=-1))
+        return cls(t0, dt, coeffs, float(t[-1] - t[0]))
+
+    @property
+    def t_end(self) -> float:
+        return self.t0 + self.duration
+
+    def cut(self, t: float) -> SampledSegment:
+        return SampledSegment(self.t0, self.dt, self.coeffs, min(self.duration, t - self.t0))
+
+    def evaluate(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        s = min(max(t - self.t0, 0.0), self.duration)
+        k = min(int(s / self.dt), self._n - 1)
+        u = s - k * self.dt
+        c = self.coeffs[k]
+        q = ((((c[:, 5] * u + c[:, 4]) * u + c[:, 3]) * u + c[:, 2]) * u + c[:, 1]) * u + c[:, 0]
+        v = (((5 * c[:, 5] * u + 4 * c[:, 4]) * u + 3 * c[:, 3]) * u + 2 * c[:, 2]) * u + c[:, 1]
+        a = ((20 * c[:, 5] * u + 12 * c[:, 4]) * u + 6 * c[:, 3]) * u + 2 * c[:, 2]
+        extra = t - self.t_end
+        if extra > 0.0:
+            q = q + v * extra
+            a = np.zeros_like(a)
+        return q, v, a
+
+    def end_state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return self.evaluate(self.t_end)
+
+    def sample(self, rate: float = 500.0) -> tuple[np.ndarray, ...]:
+        n = max(2, int(round(self.duration * rate)) + 1)
+        times = np.linspace(self.t0, self.t_end, n)
+        q, v, a = zip(*(self.evaluate(t) for t in times), strict=True)
+        return times, np.array(q), np.array(v), np.array(a)
+
+
+def blend_start_acceleration(traj: Trajectory, a0, blend_time: float = BLEND_TIME) -> Trajectory:
+    """``traj`` plus the quintic correction that makes its start acceleration ``a0`` and leaves
+    everything after ``min(blend_time, duration)`` unchanged (module docstring)."""
+    a0 = np.asarray(a0, dtype=float)
+    delta = a0 - traj.qdd[0]
+    if not np.any(delta):
+        return traj
+    tb = min(blend_time, traj.duration)
+    zero = np.zeros_like(delta)
+    corr = Quintic.fit(0.0, tb, zero, zero, delta, zero, zero, zero)
+    q, qd, qdd = traj.q.copy(), traj.qd.copy(), traj.qdd.copy()
+    for k in np.flatnonzero(traj.t <= tb + 1e-12):
+        dq, dv, da = corr.evaluate(float(traj.t[k]))
+        q[k] += dq
+        qd[k] += dv
+        qdd[k] += da
+    return Trajectory(traj.t, q, qd, qdd)
+
+
+@dataclass(frozen=True)
+class StagePrimitive:
+    """A single DMP for one stage (awaiting/return, preparation or follow-through), imitated from
+    one demonstration (Eqs. 7-8): weights ``(D, B)`` and the demonstrated amplitude ``(D,)``."""
+
+    weights: np.ndarray
+    amplitude: np.ndarray
+    tau: float  # the demonstration's duration (information only)
+
+    @classmethod
+    def imitate(cls, dmp: HittingDMP, demo: Demonstration) -> StagePrimitive:
+        res = imitate(dmp, demo)
+        return cls(res.weights, res.amplitude, res.tau)
+
+    def rollout(self, dmp: HittingDMP, state, g_f, g_dot, tau: float,
+                rate: float = 500.0) -> Trajectory:
+        """Eqs. 1-5 from ``state = (q, q_dot, q_ddot)`` to ``(g_f, g_dot)`` in ``tau`` seconds,
+        start acceleration blended to ``q_ddot``."""
+        q, qd, qdd = state
+        traj = dmp.rollout(self.weights, q, g_f, g_dot, tau, yd0=qd, amplitude=self.amplitude,
+                           rate=rate)
+        return blend_start_acceleration(traj, qdd)
+
+
+@dataclass(frozen=True)
+class MoMPStroke:
+    """What one (re-)plan of the learned player used: the stimulus, the hitting configuration,
+    and the primitives that carried the hitting stage with their mixture weights (Eq. 6)."""
+
+    stimulus: np.ndarray  # x = (p_hit, v_hit)
+    t_hit: float
+    q_hit: np.ndarray
+    qd_hit: np.ndarray
+    primitives: np.ndarray  # indices into the library
+    mixture: np.ndarray  # their normalised gating weights nu_i
+    replans: int = 1
+
+
+def plan_momp_stroke(now: float, state, stimulus, t_hit: float, q_hit, qd_hit,
+                     library: MotorPrimitiveLibrary, stages: dict, q_await,
+                     limits: JointLimits, times: StageTimes = _TIMES,
+                     preparing: bool = False, rate: float = 500.0
+                     ) -> tuple[StagePlan, np.ndarray, np.ndarray]:
+    """The stroke from the current desired ``state = (q, q_dot, q_ddot)`` at ``now``: returns the
+    plan and the hitting stage's primitives (indices, weights).
+
+    ``stages`` maps PREPARATION, FOLLOW_THROUGH and AWAITING to :class:`StagePrimitive`. Timing as
+    the teacher's (:func:`tt_drake.stages.plan_stroke`): the hitting stage lasts ``times.hitting``
+    and ends at ``t_hit``. With enough time (``times.min_preparation`` or the move time to
+    ``q_prep``; ``times.min_replan`` for an ongoing preparation) the preparation DMP runs first;
+    at rest with less time the arm holds still until the hitting stage must start; otherwise the
+    hitting stage starts now and lasts until ``t_hit``.
+    """
+    dmp = library.dmp
+    q, qd, qdd = (np.asarray(x, dtype=float) for x in state)
+    q_hit, qd_hit = np.asarray(q_hit, dtype=float), np.asarray(qd_hit, dtype=float)
+    zero = np.zeros_like(q)
+    if t_hit - now <= 1e-2:
+        raise ValueError(f"no time left to hit: t_hit {t_hit:.3f} s, now {now:.3f} s")
+    segments: list = []
+    t_start_hit = t_hit - times.hitting
+    q_prep = limits.clip(q_hit - 0.5 * times.hitting * qd_hit)
+    lead = times.min_replan if preparing else max(times.min_preparation,
+                                                   limits.move_time(q, q_prep))
+    at_rest = not preparing and not np.any(np.abs(qd) > 1e-6)
+    if t_start_hit - now >= lead:
+        prep = stages[PREPARATION].rollout(dmp, (q, qd, qdd), q_prep, zero, t_start_hit - now,
+                                           rate)
+        segments.append((PREPARATION, SampledSegment.from_trajectory(now, prep)))
+        start, t0 = segments[-1][1].end_state(), t_start_hit
+    elif at_rest and t_start_hit > now + 1e-3:
+        segments.append((AWAITING, Quintic.fit(now, t_start_hit - now, q, zero, zero, q, zero,
+                                               zero)))
+        start, t0 = (q, zero, zero), t_start_hit
+    else:
+        start, t0 = (q, qd, qdd), now
+    idx, nu = library.active(stimulus)
+    hit = library.plan(stimulus, start[0], q_hit, qd_hit, t_hit - t0, yd0=start[1], rate=rate)
+    hit = blend_start_acceleration(hit, start[2])
+    segments.append((HITTING, SampledSegment.from_trajectory(t0, hit)))
+    end = segments[-1][1].end_state()
+    t_follow = follow_through_time(end[0], end[1], limits, times)
+    q_end = limits.clip(end[0] + 0.5 * t_follow * end[1])
+    follow = stages[FOLLOW_THROUGH].rollout(dmp, end, q_end, zero, t_follow, rate)
+    segments.append((FOLLOW_THROUGH, SampledSegment.from_trajectory(t_hit, follow)))
+    end = segments[-1][1].end_state()
+    back = stages[AWAITING].rollout(dmp, end, np.asarray(q_await, dtype=float), zero,
+                                    times.return_to_awaiting, rate)
+    segments.append((AWAITING, SampledSegment.from_trajectory(segments[-1][1].t_end, back)))
+    return StagePlan(segments), idx, nu
+
+
+# ---------------------------------------------------------------------- artefacts
+LIBRARY_FILE_KIND = "momp-player-library"
+CRKR_FILE_KIND = "crkr-hitting-configuration"
+LEARNED_FORMAT_VERSION = 1
+_STAGE_KEYS = {PREPARATION: "preparation", FOLLOW_THROUGH: "follow_through",
+               AWAITING: "awaiting"}
+
+
+class LearnedArtefactError(ArtefactError):
+    """A learned-player artefact that is missing, corrupt, or trained for another scenario."""
+
+
+def _check_meta(path, meta: dict, scenario: str | None, hitting_y: float | None) -> None:
+    version = meta.get("learned_format_version")
+    if version != LEARNED_FORMAT_VERSION:
+        raise LearnedArtefactError(f"{path}: learned-player format version {version!r} is not "
+                                   f"supported (reads {LEARNED_FORMAT_VERSION})")
+    if scenario is not None and meta.get("scenario") != scenario:
+        raise LearnedArtefactError(f"{path}: trained for scenario {meta.get('scenario')!r}, "
+                                   f"not {scenario!r}; train it again on this scenario's data")
+    if hitting_y is not None and not abs(float(meta.get("hitting_y", np.nan)) - hitting_y) < 1e-9:
+        raise LearnedArtefactError(f"{path}: trained for the hitting plane y = "
+                                   f"{meta.get('hitting_y')}, not {hitting_y}")
+
+
+def save_player_library(path, library: MotorPrimitiveLibrary, stages: dict, meta: dict) -> None:
+    """The hitting library (Eq. 6) and the three stage DMPs in one artefact, with ``meta``
+    (scenario name, hitting-plane y, training data) and a format version."""
+    arrays = {"weights": library.weights, "amplitude": library.amplitude,
+              "stimuli": library.stimuli, "bandwidths": library.bandwidths,
+              "gamma": library.gamma, "s": library.s, "n": library.n}
+    for stage, key in _STAGE_KEYS.items():
+        arrays[f"{key}_weights"] = stages[stage].weights
+        arrays[f"{key}_amplitude"] = stages[stage].amplitude
+        arrays[f"{key}_tau"] = np.array(stages[stage].tau)
+    doc = {**meta, "learned_format_version": LEARNED_FORMAT_VERSION, "dmp": library.dmp.to_dict(),
+           "responsibility": library.responsibility.to_dict(), "min_weight": library.min_weight}
+    save_artefact(path, LIBRARY_FILE_KIND, arrays, doc)
+
+
+def load_player_library(path, scenario: str | None = None, hitting_y: float | None = None
+                        ) -> tuple[MotorPrimitiveLibrary, dict, dict]:
+    """(library, stage primitives, meta); :class:`LearnedArtefactError` if the file is missing,
+    corrupt, of another version, or trained for another scenario or hitting plane."""
+    try:
+        arrays, meta = load_artefact(path, LIBRARY_FILE_KIND)
+    except LearnedArtefactError:
+        raise
+    except ArtefactError as err:
+        raise LearnedArtefactError(f"primitive library: {err}") from None
+    _check_meta(path, meta, scenario, hitting_y)
+    try:
+        dmp = HittingDMP.from_dict(meta["dmp"])
+        library = MotorPrimitiveLibrary(
+            dmp, arrays["weights"], arrays["amplitude"], arrays["stimuli"], arrays["bandwidths"],
+            gamma=arrays["gamma"], s=arrays["s"], n=arrays["n"],
+            responsibility=ResponsibilityParams(**meta["responsibility"]),
+            min_weight=float(meta["min_weight"]))
+        stages = {stage: StagePrimitive(arrays[f"{key}_weights"], arrays[f"{key}_amplitude"],
+                                        float(arrays[f"{key}_tau"]))
+                  for stage, key in _STAGE_KEYS.items()}
+        for prim in stages.values():
+            if prim.weights.shape != library.weights.shape[1:]:
+                raise ValueError("stage DMP weights do not match the library's")
+    except (KeyError, TypeError, ValueError) as exc:
+        raise LearnedArtefactError(f"{path}: inconsistent primitive library ({exc})") from None
+    return library, stages, meta
+
+
+@dataclass
+class ConfigurationModel:
+    """The CrKR hitting-configuration map (section II-C.2) around a constant prior mean:
+    ``[theta_hit, theta_dot_hit](s) = y_mean + k(s)^T (K + lambda C)^-1 (Y - y_mean)``.
+
+    The prior mean (the training targets' mean) is this project's addition: without it the
+    Gaussian-kernel mean falls to zero (joint angles of 0 rad) between sparse samples."""
+
+    crkr: CrKR
+    y_mean: np.ndarray
+
+    @classmethod
+    def fit(cls, x, y, costs, bandwidths, lam: float) -> ConfigurationModel:
+        y = np.asarray(y, dtype=float)
+        mean = y.mean(axis=0)
+        return cls(CrKR(bandwidths, lam).fit(x, y - mean, costs), mean)
+
+    def predict(self, s) -> tuple[np.ndarray, np.ndarray, float]:
+        """(theta_hit (7), theta_dot_hit (7), variance sigma^2(s)) for one stimulus (6)."""
+        mean, var = self.crkr.predict(np.asarray(s, dtype=float).reshape(1, -1))
+        y = mean[0] + self.y_mean
+        return y[:7], y[7:], float(var[0])
+
+
+def save_configuration_model(path, model: ConfigurationModel, meta: dict) -> None:
+    """The CrKR map stimulus -> (theta_hit, theta_dot_hit) with ``meta`` (scenario, hitting-plane
+    y, comfort posture, inputs) and a format version."""
+    y_mean, model = model.y_mean, model.crkr
+    arrays = {"x": model.x, "y": model.y, "costs": model.costs, "bandwidths": model.bandwidths,
+              "chol": model._chol, "alpha": model._alpha, "y_mean": y_mean}
+    doc = {**meta, "learned_format_version": LEARNED_FORMAT_VERSION, "lam": model.lam,
+           "n_samples": model.n_samples}
+    save_artefact(path, CRKR_FILE_KIND, arrays, doc)
+
+
+def load_configuration_model(path, scenario: str | None = None, hitting_y: float | None = None
+                             ) -> tuple[ConfigurationModel, dict]:
+    """(model, meta); :class:`LearnedArtefactError` on any problem (see
+    :func:`load_player_library`)."""
+    try:
+        arrays, meta = load_artefact(path, CRKR_FILE_KIND)
+    except ArtefactError as err:
+        raise LearnedArtefactError(f"CrKR model: {err}") from None
+    _check_meta(path, meta, scenario, hitting_y)
+    try:
+        model = CrKR(arrays["bandwidths"], float(meta["lam"]))
+        x, y, c = model._check(arrays["x"], arrays["y"], arrays["costs"])
+        if (y.shape[1] != 14 or arrays["chol"].shape != (len(x), len(x))
+                or arrays["y_mean"].shape != (14,)):
+            raise ValueError("expected 14 outputs (theta_hit, theta_dot_hit) and a square factor")
+    except (KeyError, TypeError, ValueError) as exc:
+        raise LearnedArtefactError(f"{path}: inconsistent CrKR model ({exc})") from None
+    model.x, model.y, model.costs = x, y, c
+    model._chol, model._alpha = arrays["chol"], arrays["alpha"]
+    return ConfigurationModel(model, arrays["y_mean"]), meta
