@@ -1,0 +1,87 @@
+"""HittingConfiguration LeafSystem: the hitting configuration (theta_hit, theta_dot_hit) for the
+predicted stimulus (paper section II-C.2).
+
+Two sources, chosen at construction:
+
+- ``"crkr"`` (default): the cost-regularised kernel regression mean
+  ``y(s) = y_mean + k(s)^T (K + lambda C)^-1 (Y - y_mean)`` of
+  :class:`tt_drake.learned_player.ConfigurationModel`, with s = (p_hit, v_hit), trained by
+  ``tt-drake train crkr`` on the teacher's successful strokes;
+- ``"analytical"``: the teacher's aim + racket law + IK
+  (:meth:`tt_drake.systems.analytical_player.StrokePlanner.stroke`) on the same predicted stimulus.
+  The predictor does not estimate spin, so the ball is taken as spinless here (the teacher itself
+  uses the spin its physical model gives the bounce; this is a documented difference).
+
+Ports: inputs ``p_hit`` (3), ``v_hit`` (3), ``t_hit`` (1, absolute) and ``valid`` (1) from
+:class:`tt_drake.systems.hitting_point_predictor.HittingPointPredictor`; outputs ``theta_hit``
+(7), ``theta_dot_hit`` (7) and ``valid`` (1). It updates once per camera period, a quarter period
+after the predictor, and solves again only when the prediction changed; the outputs copy its
+discrete state ``[theta_hit (7), theta_dot_hit (7), valid, p_hit (3), v_hit (3), t_hit]``.
+"""
+
+import numpy as np
+from pydrake.systems.framework import LeafSystem
+
+from tt_drake.learned_player import ConfigurationModel
+
+SOURCES = ("crkr", "analytical")
+_N = 7 + 7 + 1 + 7
+
+
+class HittingConfiguration(LeafSystem):
+    def __init__(self, source: str = "crkr", model: ConfigurationModel | None = None,
+                 planner=None, rate: float = 60.0):
+        super().__init__()
+        if source not in SOURCES:
+            raise ValueError(f"unknown hitting-configuration source {source!r}; "
+                             f"choose one of {', '.join(SOURCES)}")
+        if source == "crkr" and model is None:
+            raise ValueError("the crkr source needs a trained ConfigurationModel")
+        if source == "analytical" and planner is None:
+            from tt_drake.systems.analytical_player import StrokePlanner
+
+            planner = StrokePlanner()
+        self.source, self.model, self.planner = source, model, planner
+        self._p = self.DeclareVectorInputPort("p_hit", 3)
+        self._v = self.DeclareVectorInputPort("v_hit", 3)
+        self._t = self.DeclareVectorInputPort("t_hit", 1)
+        self._valid = self.DeclareVectorInputPort("valid", 1)
+        self._xd = self.DeclareDiscreteState(np.zeros(_N))
+        period = 1.0 / rate
+        # The predictor updates at 2/3 of the period; this reads its new output.
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.75 * period, self._update)
+        deps = {self.xd_ticket()}
+        for name, lo, hi in (("theta_hit", 0, 7), ("theta_dot_hit", 7, 14), ("valid", 14, 15)):
+            self.DeclareVectorOutputPort(name, hi - lo, self._copy(lo, hi),
+                                         prerequisites_of_calc=deps)
+
+    def _copy(self, lo, hi):
+        def calc(context, output):
+            output.SetFromVector(context.get_discrete_state(self._xd).get_value()[lo:hi])
+
+        return calc
+
+    def solve(self, p_hit, v_hit, t_hit):
+        """(theta_hit, theta_dot_hit) or None if the source has no answer (IK failed)."""
+        if self.source == "crkr":
+            q, qd, _ = self.model.predict(np.r_[p_hit, v_hit])
+            return q, qd
+        stroke = self.planner.stroke(p_hit, v_hit, t_hit, np.zeros(3), None)
+        return None if stroke is None else (stroke.q_hit, stroke.qd_hit)
+
+    def _update(self, context, discrete_state):
+        if self._valid.Eval(context)[0] < 0.5:
+            return
+        x = context.get_discrete_state(self._xd).get_value()
+        stimulus = np.r_[self._p.Eval(context), self._v.Eval(context), self._t.Eval(context)]
+        if np.array_equal(stimulus, x[15:]):
+            return  # solved (or failed) for this prediction already
+        new = x.copy()
+        new[15:] = stimulus
+        answer = self.solve(stimulus[:3], stimulus[3:6], float(stimulus[6]))
+        if answer is None:
+            new[14] = 0.0
+        else:
+            new[:7], new[7:14] = answer
+            new[14] = 1.0
+        discrete_state.set_value(self._xd, new)

@@ -1,0 +1,174 @@
+"""MoMPTrajectorySource LeafSystem: the learned player's stage machine (paper sections III-A, C).
+
+Per camera frame (after the predictor and the hitting configuration have updated), until the
+hitting stage has begun, it reads the predicted stimulus x = (p_hit, v_hit), the hitting time
+t_hit and the hitting configuration (theta_hit, theta_dot_hit) and, when they are new (the hitting
+point moved more than ``replan_position`` or t_hit more than ``replan_time``, or theta changed),
+re-plans the stroke from the current desired state with
+:func:`tt_drake.learned_player.plan_momp_stroke`:
+
+- preparation: the preparation DMP to ``q_prep = theta_hit - (T_hit / 2) theta_dot_hit``;
+- hitting: the mixture of motor primitives ``pi(x) = sum_i gamma_i k(x - x_i) pi_i / sum_i gamma_i
+  k(x - x_i)`` (Eq. 6, Algorithm 1) with ``g_f = theta_hit``, ``g_dot = theta_dot_hit`` and
+  ``tau`` = the time to t_hit (Eqs. 1-5), so the arm arrives at (theta_hit, theta_dot_hit) at t_hit;
+- follow-through and the return to the awaiting posture: their stage DMPs.
+
+Each stage is sampled once per plan at 500 Hz into one quintic per interval
+(:class:`tt_drake.learned_player.SampledSegment`); the output ports evaluate it in O(1).
+
+Ports: inputs ``p_hit`` (3), ``v_hit`` (3), ``t_hit`` (1, absolute) from the
+HittingPointPredictor, ``theta_hit`` (7), ``theta_dot_hit`` (7) and ``configuration_valid`` (1)
+from HittingConfiguration; outputs ``desired_state`` (14: q, q_dot) and ``desired_acceleration``
+(7) for the InverseDynamicsController, ``stage`` (1: index into :data:`tt_drake.stages.STAGES`),
+``predicted_hit`` (4: p_hit and a valid flag, for drawing) and ``stroke`` (the
+:class:`tt_drake.learned_player.MoMPStroke`: which primitives carried the hitting stage, with their
+mixture weights).
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+from tt_drake import wam_params as wp
+from tt_drake.learned_player import MoMPStroke, plan_momp_stroke
+from tt_drake.momp import MotorPrimitiveLibrary
+from tt_drake.stages import (
+    AWAITING,
+    HITTING,
+    PREPARATION,
+    STAGES,
+    JointLimits,
+    Quintic,
+    StagePlan,
+    StageTimes,
+)
+from tt_drake.systems.immutable import Immutable
+
+
+@dataclass(frozen=True)
+class MoMPConfig:
+    replan_position: float = 0.003  # m
+    replan_time: float = 0.002  # s
+    replan_configuration: float = 1e-3  # rad (or rad/s)
+    min_time_to_hit: float = 0.05  # s: closer than this to t_hit no (re-)plan starts
+    times: StageTimes = StageTimes()
+
+
+class _State(Immutable):
+    __slots__ = ("plan", "stroke", "committed")
+
+    def __init__(self, plan: StagePlan, stroke: MoMPStroke | None = None,
+                 committed: bool = False):
+        self.plan, self.stroke, self.committed = plan, stroke, committed
+
+
+def joint_limits() -> JointLimits:
+    return JointLimits(np.asarray(wp.JOINT_LOWER, dtype=float),
+                       np.asarray(wp.JOINT_UPPER, dtype=float),
+                       np.asarray(wp.VELOCITY_LIMIT, dtype=float),
+                       np.asarray(wp.ACCELERATION_LIMIT, dtype=float))
+
+
+class MoMPTrajectorySource(LeafSystem):
+    def __init__(self, library: MotorPrimitiveLibrary, stages: dict,
+                 config: MoMPConfig | None = None, rate: float = 60.0, q_await=None):
+        super().__init__()
+        self.library, self.stages = library, stages
+        self.config = config or MoMPConfig()
+        self.limits = joint_limits()
+        self.q_await = np.asarray(wp.AWAITING if q_await is None else q_await, dtype=float)
+        self._p = self.DeclareVectorInputPort("p_hit", 3)
+        self._v = self.DeclareVectorInputPort("v_hit", 3)
+        self._t = self.DeclareVectorInputPort("t_hit", 1)
+        self._q_hit = self.DeclareVectorInputPort("theta_hit", 7)
+        self._qd_hit = self.DeclareVectorInputPort("theta_dot_hit", 7)
+        self._valid = self.DeclareVectorInputPort("configuration_valid", 1)
+        self._index = self.DeclareAbstractState(AbstractValue.Make(_State(self.awaiting_plan())))
+        period = 1.0 / rate
+        # After the predictor (2/3 period) and HittingConfiguration (3/4 period) of the frame.
+        self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.875 * period, self._update)
+        self.DeclareForcedUnrestrictedUpdateEvent(self._update)
+        self.DeclareVectorOutputPort("desired_state", BasicVector(14), self._calc_state)
+        self.DeclareVectorOutputPort("desired_acceleration", BasicVector(7), self._calc_accel)
+        self.DeclareVectorOutputPort("stage", BasicVector(1), self._calc_stage)
+        self.DeclareVectorOutputPort("predicted_hit", BasicVector(4), self._calc_predicted_hit)
+        self.DeclareAbstractOutputPort("stroke", lambda: AbstractValue.Make(object()),
+                                       self._calc_stroke)
+
+    def awaiting_plan(self, t: float = 0.0) -> StagePlan:
+        zero = np.zeros(7)
+        return StagePlan([(AWAITING, Quintic.fit(t, 1.0, self.q_await, zero, zero,
+                                                  self.q_await, zero, zero))])
+
+    def player_state(self, context) -> _State:
+        return context.get_abstract_state(self._index).get_value()
+
+    def _needs_replan(self, old: MoMPStroke | None, p_hit, t_hit, q_hit, qd_hit) -> bool:
+        if old is None:
+            return True
+        cfg = self.config
+        return (float(np.linalg.norm(p_hit - old.stimulus[:3])) > cfg.replan_position
+                or abs(t_hit - old.t_hit) > cfg.replan_time
+                or float(np.abs(q_hit - old.q_hit).max()) > cfg.replan_configuration
+                or float(np.abs(qd_hit - old.qd_hit).max()) > cfg.replan_configuration)
+
+    def _update(self, context, state):
+        old = self.player_state(context)
+        if old.committed:
+            return
+        now = context.get_time()
+        plan = old.plan
+        hit = next((seg for stage, seg in plan.segments if stage == HITTING), None)
+        if hit is not None and now >= hit.t0:  # the hitting stage has begun: no more re-plans
+            state.get_mutable_abstract_state(self._index).set_value(
+                _State(plan, old.stroke, committed=True))
+            return
+        if self._valid.Eval(context)[0] < 0.5:
+            return
+        p_hit, v_hit = self._p.Eval(context), self._v.Eval(context)
+        t_hit = float(self._t.Eval(context)[0])
+        q_hit, qd_hit = self._q_hit.Eval(context), self._qd_hit.Eval(context)
+        if t_hit - now < self.config.min_time_to_hit:
+            return
+        if not self._needs_replan(old.stroke, p_hit, t_hit, q_hit, qd_hit):
+            return
+        x = np.r_[p_hit, v_hit]
+        preparing = plan.stage_at(now) == PREPARATION
+        try:
+            new, idx, nu = plan_momp_stroke(now, plan.evaluate(now), x, t_hit, q_hit, qd_hit,
+                                            self.library, self.stages, self.q_await, self.limits,
+                                            self.config.times, preparing)
+        except ValueError:
+            return
+        replans = 1 if old.stroke is None else old.stroke.replans + 1
+        stroke = MoMPStroke(x, t_hit, np.array(q_hit), np.array(qd_hit), idx, nu, replans)
+        state.get_mutable_abstract_state(self._index).set_value(
+            _State(StagePlan(plan.truncated(now).segments + new.segments), stroke))
+
+    def _calc_state(self, context, output):
+        q, qd, _ = self.player_state(context).plan.evaluate(context.get_time())
+        out = output.get_mutable_value()
+        out[:7] = q
+        out[7:] = qd
+
+    def _calc_accel(self, context, output):
+        output.get_mutable_value()[:] = self.player_state(context).plan.evaluate(
+            context.get_time())[2]
+
+    def _calc_stage(self, context, output):
+        stage = self.player_state(context).plan.stage_at(context.get_time())
+        output.get_mutable_value()[0] = STAGES.index(stage)
+
+    def _calc_predicted_hit(self, context, output):
+        stroke = self.player_state(context).stroke
+        out = output.get_mutable_value()
+        if stroke is None:
+            out[:] = 0.0
+        else:
+            out[:3] = stroke.stimulus[:3]
+            out[3] = 1.0
+
+    def _calc_stroke(self, context, output):
+        output.set_value(self.player_state(context).stroke)
