@@ -5,6 +5,9 @@
     tt-drake bench  [--serves N] [--json out.json]
     tt-drake collect --player analytical --serves N --seed S --out DIR [--workers W]
     tt-drake models  (rewrite the generated model files in models/)
+    tt-drake train library|crkr --data DIR --out FILE [--primitives 300] [--samples 2500]
+    tt-drake serve --player momp --library FILE [--crkr FILE] [--predictor FILE]
+                   [--configuration crkr|analytical] ...
 
 Bad input (an unknown or malformed scenario field, a missing model or data file, an unknown
 distribution or player, N <= 0, an unwritable output path) gives one line naming the problem on
@@ -38,6 +41,15 @@ def _add_scenario_options(p: argparse.ArgumentParser) -> None:
                    help="override the launcher's serve distribution: default, real or fixed")
 
 
+def _add_learned_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--library", default="", help="momp player: primitive library (train library)")
+    p.add_argument("--crkr", default="", help="momp player: CrKR model (train crkr)")
+    p.add_argument("--predictor", default="",
+                   help="momp player: GPR predictor (train-predictor; default: physical model)")
+    p.add_argument("--configuration", default="crkr",
+                   help="momp player: hitting configuration from crkr (default) or analytical")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="tt-drake", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -52,6 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--workers", type=_positive_int, default=1,
                        help="parallel worker processes (not with --html; default 1)")
     _add_scenario_options(serve)
+    _add_learned_options(serve)
 
     bench = sub.add_parser("bench", help="time serve episodes against a C++ reference diagram")
     bench.add_argument("--serves", type=_positive_int, default=10)
@@ -59,6 +72,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--player", default="idle")
     bench.add_argument("--json", default=None, help="write the measurements as JSON")
     _add_scenario_options(bench)
+    _add_learned_options(bench)
 
     collect = sub.add_parser("collect", help="record teacher demonstrations (resumable)")
     collect.add_argument("--player", default="analytical")
@@ -71,6 +85,15 @@ def build_parser() -> argparse.ArgumentParser:
     _add_scenario_options(collect)
 
     sub.add_parser("models", help="rewrite the generated model files in models/")
+
+    learn = sub.add_parser("train", help="train the learned player's library or CrKR model")
+    learn.add_argument("artefact", choices=("library", "crkr"))
+    learn.add_argument("--data", required=True, help="teacher dataset folder (tt-drake collect)")
+    learn.add_argument("--out", required=True, help="artefact file to write (.npz)")
+    learn.add_argument("--primitives", type=_positive_int, default=300,
+                       help="library: at most this many hitting primitives (default 300)")
+    learn.add_argument("--samples", type=_positive_int, default=2500,
+                       help="crkr: at most this many teacher pairs (default 2500)")
 
     train = sub.add_parser("train-predictor", help="train the GPR hitting-point predictor")
     train.add_argument("--serves", type=_positive_int, default=1000)
@@ -90,6 +113,12 @@ def _scenario(args):
     from tt_drake.diagrams.scenario import load_scenario, validate
 
     scenario = load_scenario(args.scenario)
+    if getattr(args, "library", None) is not None:
+        learned = scenario.learned
+        learned.library = args.library or learned.library
+        learned.crkr = args.crkr or learned.crkr
+        learned.predictor = args.predictor or learned.predictor
+        learned.configuration = args.configuration
     if args.distribution is not None:
         scenario.launcher.distribution = args.distribution
         validate(scenario, "--distribution")
@@ -103,11 +132,20 @@ def _check_player(name: str) -> None:
         raise PlayerError(f"unknown player {name!r}; choose one of {', '.join(PLAYERS)}")
 
 
+def _check_learned(player: str, scenario) -> None:
+    """Fail with one line before any simulation if the momp player's artefacts are unusable."""
+    if player == "momp":
+        from tt_drake.diagrams.episodes import load_learned_player
+
+        load_learned_player(scenario)
+
+
 def _serve(args) -> None:
     from tt_drake.diagrams.serve import format_summary, run_serves
 
     _check_player(args.player)
     scenario = _scenario(args)
+    _check_learned(args.player, scenario)
     data = run_serves(scenario, args.player, args.serves, args.seed, args.html, args.json,
                       progress=not args.quiet, workers=args.workers)
     print(format_summary(data))
@@ -122,6 +160,7 @@ def _bench(args) -> None:
 
     _check_player(args.player)
     scenario = _scenario(args)
+    _check_learned(args.player, scenario)
     if args.json:
         check_writable(args.json)
     result = run_bench(scenario, args.serves, args.seed, args.player)
@@ -166,8 +205,19 @@ def _eval_predictor(args) -> None:
         print(f"wrote {args.json}")
 
 
+def _train(args) -> None:
+    from tt_drake.diagrams.train import format_train, train_crkr, train_library
+
+    if args.artefact == "library":
+        summary = train_library(args.data, args.out, args.primitives)
+    else:
+        summary = train_crkr(args.data, args.out, args.samples)
+    print(format_train(summary))
+
+
 COMMANDS = {"serve": _serve, "bench": _bench, "collect": _collect, "models": _models,
-            "train-predictor": _train_predictor, "eval-predictor": _eval_predictor}
+            "train-predictor": _train_predictor, "eval-predictor": _eval_predictor,
+            "train": _train}
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
@@ -175,13 +225,15 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from tt_drake.diagrams.episodes import PlayerError
     from tt_drake.diagrams.predictor import PredictorError
     from tt_drake.diagrams.scenario import ScenarioError
+    from tt_drake.diagrams.train import TrainError
     from tt_drake.hitting_point import PredictorFileError
+    from tt_drake.learned_player import LearnedArtefactError
     from tt_drake.outputs import OutputError
     from tt_drake.serves import ServeError
     from tt_drake.systems.world import ModelFileError
 
     return (CliError, ScenarioError, ServeError, PlayerError, ModelFileError, OutputError,
-            PredictorError, PredictorFileError, DatasetError)
+            PredictorError, PredictorFileError, DatasetError, TrainError, LearnedArtefactError)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -77,7 +77,79 @@ def _analytical_player(builder: DiagramBuilder, world: World, controller,
     return [camera]
 
 
-PLAYERS: dict[str, Callable] = {"idle": _idle_player, "analytical": _analytical_player}
+def load_learned_player(scenario: Scenario) -> dict:
+    """Load and check the learned player's artefacts named in ``scenario.learned``; raise
+    PlayerError with one line naming the problem (missing, corrupt, another scenario)."""
+    from tt_drake.constants import PLANES
+    from tt_drake.hitting_point import HittingPointGPR, PredictorFileError
+    from tt_drake.learned_player import (
+        LearnedArtefactError,
+        load_configuration_model,
+        load_player_library,
+    )
+    from tt_drake.systems.hitting_configuration import SOURCES
+
+    cfg = scenario.learned
+    if cfg.configuration not in SOURCES:
+        raise PlayerError(f"unknown hitting configuration {cfg.configuration!r}; choose one of "
+                          f"{', '.join(SOURCES)}")
+    if not cfg.library:
+        raise PlayerError("the momp player needs --library FILE (from tt-drake train library)")
+    if cfg.configuration == "crkr" and not cfg.crkr:
+        raise PlayerError("the momp player with --configuration crkr needs --crkr FILE (from "
+                          "tt-drake train crkr)")
+    out = {}
+    try:
+        out["library"], out["stages"], _ = load_player_library(cfg.library, scenario.name,
+                                                               PLANES.hitting_y)
+        if cfg.configuration == "crkr":
+            out["crkr"], _ = load_configuration_model(cfg.crkr, scenario.name, PLANES.hitting_y)
+        out["gpr"] = HittingPointGPR.load(cfg.predictor) if cfg.predictor else None
+    except (LearnedArtefactError, PredictorFileError) as err:
+        raise PlayerError(str(err)) from None
+    return out
+
+
+def _momp_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario) -> list:
+    """The learned player (paper Fig. 1): camera -> estimator -> GPR hitting-point predictor ->
+    HittingConfiguration (CrKR or the analytical IK) -> MoMPTrajectorySource -> controller."""
+    from tt_drake.systems.analytical_player import PlannerConfig, StrokePlanner
+    from tt_drake.systems.hitting_configuration import HittingConfiguration
+    from tt_drake.systems.hitting_point_predictor import HittingPointPredictor
+    from tt_drake.systems.momp_player import MoMPTrajectorySource
+
+    learned = load_learned_player(scenario)
+    camera, estimator = add_vision(builder, world, scenario)
+    predictor = builder.AddNamedSystem("hitting_point_predictor",
+                                       HittingPointPredictor(gpr=learned["gpr"]))
+    builder.Connect(estimator.GetOutputPort("state"), predictor.GetInputPort("state"))
+    builder.Connect(estimator.GetOutputPort("status"), predictor.GetInputPort("status"))
+    if scenario.learned.configuration == "crkr":
+        configuration = HittingConfiguration("crkr", model=learned["crkr"])
+    else:
+        config = PlannerConfig(target_x=scenario.referee.target_x,
+                               target_y=scenario.referee.target_y)
+        configuration = HittingConfiguration("analytical", planner=StrokePlanner(config=config))
+    configuration = builder.AddNamedSystem("hitting_configuration", configuration)
+    player = builder.AddNamedSystem("momp_player",
+                                    MoMPTrajectorySource(learned["library"], learned["stages"]))
+    for name in ("p_hit", "v_hit", "t_hit", "valid"):
+        builder.Connect(predictor.GetOutputPort(name), configuration.GetInputPort(name))
+    for name in ("p_hit", "v_hit", "t_hit"):
+        builder.Connect(predictor.GetOutputPort(name), player.GetInputPort(name))
+    for name in ("theta_hit", "theta_dot_hit"):
+        builder.Connect(configuration.GetOutputPort(name), player.GetInputPort(name))
+    builder.Connect(configuration.GetOutputPort("valid"),
+                    player.GetInputPort("configuration_valid"))
+    builder.Connect(player.GetOutputPort("desired_state"),
+                    controller.get_input_port_desired_state())
+    builder.Connect(player.GetOutputPort("desired_acceleration"),
+                    controller.get_input_port_desired_acceleration())
+    return [camera]
+
+
+PLAYERS: dict[str, Callable] = {"idle": _idle_player, "analytical": _analytical_player,
+                                "momp": _momp_player}
 
 
 @dataclass

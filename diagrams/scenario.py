@@ -29,6 +29,19 @@ class ControllerConfig:
 
 
 @dataclass
+class LearnedPlayerConfig:
+    """Artefacts of the learned (``momp``) player: the primitive library and CrKR model from
+    ``tt-drake train library|crkr``, the GPR predictor from ``tt-drake train-predictor`` (empty:
+    the physical-model predictor), and where the hitting configuration comes from: ``crkr`` or
+    ``analytical`` (the teacher's IK on the predicted stimulus)."""
+
+    library: str = ""
+    crkr: str = ""
+    predictor: str = ""
+    configuration: str = "crkr"
+
+
+@dataclass
 class Scenario:
     name: str = "default"
     world: WorldConfig = field(default_factory=WorldConfig)
@@ -39,6 +52,7 @@ class Scenario:
     controller: ControllerConfig = field(default_factory=ControllerConfig)
     # An episode lasts until the predicted crossing of the hitting plane plus this long (s).
     after_crossing: float = 1.2
+    learned: LearnedPlayerConfig = field(default_factory=LearnedPlayerConfig)
 
 
 class ScenarioError(ValueError):
