@@ -1,0 +1,87 @@
+"""tt-drake train library|crkr on a tiny teacher dataset, the artefacts' checks, and the momp
+player end to end through the CLI."""
+
+import json
+
+import numpy as np
+import pytest
+
+from tt_drake.constants import PLANES
+from tt_drake.diagrams.cli import main
+from tt_drake.diagrams.collect import collect
+from tt_drake.diagrams.scenario import load_scenario
+from tt_drake.learned_player import (
+    LearnedArtefactError,
+    load_configuration_model,
+    load_player_library,
+)
+from tt_drake.stages import AWAITING, FOLLOW_THROUGH, PREPARATION
+
+
+@pytest.fixture(scope="module")
+def artefacts(tmp_path_factory):
+    root = tmp_path_factory.mktemp("learned")
+    data = root / "teacher"
+    collect(load_scenario(), "analytical", 6, 11, str(data), progress=False, chunk_size=3)
+    library, crkr = root / "library.npz", root / "crkr.npz"
+    assert main(["train", "library", "--data", str(data), "--out", str(library)]) == 0
+    assert main(["train", "crkr", "--data", str(data), "--out", str(crkr)]) == 0
+    return data, library, crkr
+
+
+def test_library_holds_one_primitive_per_successful_stroke(artefacts):
+    from tt_drake.diagrams.collect import load_dataset
+
+    data, library_path, _ = artefacts
+    dataset = load_dataset(data)
+    library, stages, meta = load_player_library(library_path, "default", PLANES.hitting_y)
+    assert library.n_primitives == int(dataset["returned"].sum())
+    assert library.stimuli.shape[1] == 6 and library.bandwidths[1] == 1.0  # y: the plane
+    assert set(stages) == {PREPARATION, FOLLOW_THROUGH, AWAITING}
+    assert meta["scenario"] == "default" and meta["dataset_serves"] == 6
+
+
+def test_crkr_reproduces_its_training_configurations(artefacts):
+    from tt_drake.diagrams.collect import load_dataset
+
+    data, _, crkr_path = artefacts
+    dataset = load_dataset(data)
+    model, meta = load_configuration_model(crkr_path, "default", PLANES.hitting_y)
+    ok = np.flatnonzero(dataset["returned"] > 0.5)
+    q, qd, var = model.predict(dataset["stimulus"][ok[0], :6])
+    assert q.shape == (7,) and qd.shape == (7,) and var > 0
+    # lambda C = 0.01 c regularises lightly: near the samples the mean is close to them
+    np.testing.assert_allclose(q, dataset["q_hit"][ok[0]], atol=0.2)
+    assert meta["outputs"].startswith("theta_hit")
+
+
+def test_artefacts_for_another_scenario_or_damaged_are_refused(artefacts, tmp_path, capsys):
+    _, library, crkr = artefacts
+    with pytest.raises(LearnedArtefactError, match="trained for scenario 'default'"):
+        load_player_library(library, "other")
+    with pytest.raises(LearnedArtefactError, match="hitting plane"):
+        load_configuration_model(crkr, "default", PLANES.hitting_y + 0.1)
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(library.read_bytes()[:500])
+    with pytest.raises(LearnedArtefactError, match="corrupt or truncated"):
+        load_player_library(bad)
+    with pytest.raises(LearnedArtefactError, match="expected 'momp-player-library'"):
+        load_player_library(crkr)
+    other = tmp_path / "other.yaml"
+    other.write_text("name: other\n")
+    assert main(["serve", "--player", "momp", "--library", str(library), "--crkr", str(crkr),
+                 "--scenario", str(other), "--serves", "1", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "trained for scenario 'default', not 'other'" in err
+    assert main(["serve", "--player", "momp", "--serves", "1", "--quiet"]) == 2
+    assert "needs --library" in capsys.readouterr().err
+    assert main(["train", "crkr", "--data", str(tmp_path), "--out", str(tmp_path / "c.npz")]) == 2
+
+
+def test_momp_player_serves_end_to_end(artefacts, tmp_path):
+    _, library, crkr = artefacts
+    out = tmp_path / "momp.json"
+    assert main(["serve", "--player", "momp", "--library", str(library), "--crkr", str(crkr),
+                 "--serves", "2", "--seed", "3", "--json", str(out), "--quiet"]) == 0
+    data = json.loads(out.read_text())
+    assert data["summary"]["serves"] == 2 and len(data["episodes"]) == 2
