@@ -13,6 +13,13 @@ re-plans the stroke from the current desired state with
   ``tau`` = the time to t_hit (Eqs. 1-5), so the arm arrives at (theta_hit, theta_dot_hit) at t_hit;
 - follow-through and the return to the awaiting posture: their stage DMPs.
 
+A plan that leaves the joint position, velocity (10 rad/s) or acceleration (200 rad/s^2) limits
+is not executed (DMP amplitude scaling, ``eta = (g_f - y0) / A``, can mirror and amplify a
+demonstrated shape when the stroke must start far from where the demonstrations started, e.g. a
+late prediction with no time to prepare): the player keeps its previous plan if it has one, and
+otherwise falls back to the teacher's quintic stages (:func:`tt_drake.stages.plan_stroke`) to the
+same hitting configuration; ``MoMPStroke.fallback`` records it.
+
 Each stage is sampled once per plan at 500 Hz into one quintic per interval
 (:class:`tt_drake.learned_player.SampledSegment`); the output ports evaluate it in O(1).
 
@@ -32,7 +39,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from tt_drake import wam_params as wp
-from tt_drake.learned_player import MoMPStroke, plan_momp_stroke
+from tt_drake.learned_player import MoMPStroke, plan_momp_stroke, within_limits
 from tt_drake.momp import MotorPrimitiveLibrary
 from tt_drake.stages import (
     AWAITING,
@@ -43,6 +50,7 @@ from tt_drake.stages import (
     Quintic,
     StagePlan,
     StageTimes,
+    plan_stroke,
 )
 from tt_drake.systems.immutable import Immutable
 
@@ -142,8 +150,17 @@ class MoMPTrajectorySource(LeafSystem):
                                             self.config.times, preparing)
         except ValueError:
             return
+        fallback = not within_limits(new, self.limits)
+        if fallback:
+            if old.stroke is not None:
+                return  # keep the feasible plan made before
+            state_now = plan.evaluate(now)
+            new = plan_stroke(now, state_now, t_hit, q_hit, qd_hit, self.q_await, self.limits,
+                              self.config.times, preparing, allow_wait=False)
+            idx, nu = idx[:0], nu[:0]
         replans = 1 if old.stroke is None else old.stroke.replans + 1
-        stroke = MoMPStroke(x, t_hit, np.array(q_hit), np.array(qd_hit), idx, nu, replans)
+        stroke = MoMPStroke(x, t_hit, np.array(q_hit), np.array(qd_hit), idx, nu, replans,
+                            fallback)
         state.get_mutable_abstract_state(self._index).set_value(
             _State(StagePlan(plan.truncated(now).segments + new.segments), stroke))
 

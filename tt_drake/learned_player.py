@@ -54,7 +54,7 @@ from tt_drake.stages import (
 __all__ = ["SampledSegment", "StagePrimitive", "blend_start_acceleration", "MoMPStroke",
            "plan_momp_stroke", "BLEND_TIME", "LearnedArtefactError", "save_player_library",
            "load_player_library", "save_configuration_model", "load_configuration_model",
-           "ConfigurationModel"]
+           "ConfigurationModel", "within_limits"]
 
 BLEND_TIME = 0.1  # s
 _TIMES = StageTimes()
@@ -113,6 +113,11 @@ class SampledSegment:
             a = np.zeros_like(a)
         return q, v, a
 
+    def knots(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(q, q_dot, q_ddot) at the samples (interval starts), shape (K, D) each."""
+        c = self.coeffs
+        return c[:, :, 0], c[:, :, 1], 2.0 * c[:, :, 2]
+
     def end_state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return self.evaluate(self.t_end)
 
@@ -121,6 +126,19 @@ class SampledSegment:
         times = np.linspace(self.t0, self.t_end, n)
         q, v, a = zip(*(self.evaluate(t) for t in times), strict=True)
         return times, np.array(q), np.array(v), np.array(a)
+
+
+def within_limits(plan: StagePlan, limits: JointLimits, rate: float = 200.0) -> bool:
+    """Every segment of ``plan`` inside the joint position, velocity and acceleration limits (at
+    the stored samples of a :class:`SampledSegment`, at ``rate`` Hz for other segments)."""
+    for _, seg in plan.segments:
+        q, qd, qdd = seg.knots() if isinstance(seg, SampledSegment) else seg.sample(rate)[1:]
+        if (np.any(q < limits.lower) or np.any(q > limits.upper)
+                or np.any(np.abs(qd) > limits.velocity)
+                or (limits.acceleration is not None
+                    and np.any(np.abs(qdd) > limits.acceleration))):
+            return False
+    return True
 
 
 def blend_start_acceleration(traj: Trajectory, a0, blend_time: float = BLEND_TIME) -> Trajectory:
@@ -178,6 +196,7 @@ class MoMPStroke:
     primitives: np.ndarray  # indices into the library
     mixture: np.ndarray  # their normalised gating weights nu_i
     replans: int = 1
+    fallback: bool = False  # the MoMP plan left the joint limits: teacher's quintic stages used
 
 
 def plan_momp_stroke(now: float, state, stimulus, t_hit: float, q_hit, qd_hit,
