@@ -13,10 +13,13 @@ re-plans the stroke from the current desired state with
   ``tau`` = the time to t_hit (Eqs. 1-5), so the arm arrives at (theta_hit, theta_dot_hit) at t_hit;
 - follow-through and the return to the awaiting posture: their stage DMPs.
 
-A plan that leaves the joint position, velocity (10 rad/s) or acceleration (200 rad/s^2) limits
-is not executed (DMP amplitude scaling, ``eta = (g_f - y0) / A``, can mirror and amplify a
-demonstrated shape when the stroke must start far from where the demonstrations started, e.g. a
-late prediction with no time to prepare): the player keeps its previous plan if it has one, and
+The hitting stage lasts 0.4 s after a preparation if there is time for both; with a late
+prediction, shorter hitting stages (down to 0.2 s) still after a preparation, and last a hitting
+stage from the current state until t_hit, are tried in turn; the first plan inside the joint
+position, velocity (10 rad/s) and acceleration (200 rad/s^2) limits is executed. A hitting DMP
+started far from where the demonstrations started (they start at rest at q_prep) is the usual
+offender. (DMP amplitude scaling, ``eta = (g_f - y0) / A``, mirrors or amplifies the demonstrated
+shape.) If none is inside the limits the player keeps its previous plan if it has one, and
 otherwise falls back to the teacher's quintic stages (:func:`tt_drake.stages.plan_stroke`) to the
 same hitting configuration; ``MoMPStroke.fallback`` records it.
 
@@ -61,6 +64,9 @@ class MoMPConfig:
     replan_time: float = 0.002  # s
     replan_configuration: float = 1e-3  # rad (or rad/s)
     min_time_to_hit: float = 0.05  # s: closer than this to t_hit no (re-)plan starts
+    # Hitting-stage durations tried in turn (with a preparation before), then none (hit from
+    # the current state until t_hit): the first plan inside the joint limits is executed.
+    hitting_durations: tuple = (0.4, 0.35, 0.3, 0.25, 0.2)
     times: StageTimes = StageTimes()
 
 
@@ -144,13 +150,20 @@ class MoMPTrajectorySource(LeafSystem):
             return
         x = np.r_[p_hit, v_hit]
         preparing = plan.stage_at(now) == PREPARATION
-        try:
-            new, idx, nu = plan_momp_stroke(now, plan.evaluate(now), x, t_hit, q_hit, qd_hit,
-                                            self.library, self.stages, self.q_await, self.limits,
-                                            self.config.times, preparing)
-        except ValueError:
-            return
-        fallback = not within_limits(new, self.limits)
+        new = None
+        for hitting in (*self.config.hitting_durations, None):
+            try:
+                new, idx, nu = plan_momp_stroke(
+                    now, plan.evaluate(now), x, t_hit, q_hit, qd_hit, self.library, self.stages,
+                    self.q_await, self.limits, self.config.times, preparing,
+                    hitting=hitting, prepare=hitting is not None)
+            except ValueError:
+                continue
+            if within_limits(new, self.limits):
+                break
+        else:
+            new = None
+        fallback = new is None
         if fallback:
             if old.stroke is not None:
                 return  # keep the feasible plan made before

@@ -202,17 +202,19 @@ class MoMPStroke:
 def plan_momp_stroke(now: float, state, stimulus, t_hit: float, q_hit, qd_hit,
                      library: MotorPrimitiveLibrary, stages: dict, q_await,
                      limits: JointLimits, times: StageTimes = _TIMES,
-                     preparing: bool = False, rate: float = 500.0
+                     preparing: bool = False, rate: float = 500.0,
+                     hitting: float | None = None, prepare: bool = True
                      ) -> tuple[StagePlan, np.ndarray, np.ndarray]:
     """The stroke from the current desired ``state = (q, q_dot, q_ddot)`` at ``now``: returns the
     plan and the hitting stage's primitives (indices, weights).
 
     ``stages`` maps PREPARATION, FOLLOW_THROUGH and AWAITING to :class:`StagePrimitive`. Timing as
-    the teacher's (:func:`tt_drake.stages.plan_stroke`): the hitting stage lasts ``times.hitting``
-    and ends at ``t_hit``. With enough time (``times.min_preparation`` or the move time to
-    ``q_prep``; ``times.min_replan`` for an ongoing preparation) the preparation DMP runs first;
-    at rest with less time the arm holds still until the hitting stage must start; otherwise the
-    hitting stage starts now and lasts until ``t_hit``.
+    the teacher's (:func:`tt_drake.stages.plan_stroke`): the hitting stage lasts ``hitting``
+    (default ``times.hitting``) and ends at ``t_hit``. With ``prepare`` the preparation DMP runs
+    first and needs ``times.min_preparation`` or the move time to ``q_prep`` (``times.min_replan``
+    for an ongoing preparation), else ValueError; without, the hitting stage starts now and lasts
+    until ``t_hit``. The caller (:class:`tt_drake.systems.momp_player.MoMPTrajectorySource`) tries
+    shorter hitting stages, then no preparation, until the plan stays within the joint limits.
     """
     dmp = library.dmp
     q, qd, qdd = (np.asarray(x, dtype=float) for x in state)
@@ -221,20 +223,18 @@ def plan_momp_stroke(now: float, state, stimulus, t_hit: float, q_hit, qd_hit,
     if t_hit - now <= 1e-2:
         raise ValueError(f"no time left to hit: t_hit {t_hit:.3f} s, now {now:.3f} s")
     segments: list = []
-    t_start_hit = t_hit - times.hitting
-    q_prep = limits.clip(q_hit - 0.5 * times.hitting * qd_hit)
+    t_hitting = times.hitting if hitting is None else float(hitting)
+    t_start_hit = t_hit - t_hitting
+    q_prep = limits.clip(q_hit - 0.5 * t_hitting * qd_hit)
     lead = times.min_replan if preparing else max(times.min_preparation,
                                                    limits.move_time(q, q_prep))
-    at_rest = not preparing and not np.any(np.abs(qd) > 1e-6)
-    if t_start_hit - now >= lead:
+    if prepare and t_start_hit - now < lead:
+        raise ValueError(f"no time to prepare a {t_hitting:.2f} s hitting stage")
+    if prepare:
         prep = stages[PREPARATION].rollout(dmp, (q, qd, qdd), q_prep, zero, t_start_hit - now,
                                            rate)
         segments.append((PREPARATION, SampledSegment.from_trajectory(now, prep)))
         start, t0 = segments[-1][1].end_state(), t_start_hit
-    elif at_rest and t_start_hit > now + 1e-3:
-        segments.append((AWAITING, Quintic.fit(now, t_start_hit - now, q, zero, zero, q, zero,
-                                               zero)))
-        start, t0 = (q, zero, zero), t_start_hit
     else:
         start, t0 = (q, qd, qdd), now
     idx, nu = library.active(stimulus)

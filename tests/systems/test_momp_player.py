@@ -154,3 +154,19 @@ def test_output_evaluation_is_constant_time(stroke_run):
             seg.evaluate(t)
         timings.append(time.perf_counter() - start)
     assert max(timings) < 3 * min(timings)
+
+
+def test_a_late_prediction_shortens_the_hitting_stage_and_still_arrives():
+    library, stages, stimuli = synthetic_library()
+    player = MoMPTrajectorySource(library, stages)
+    context = player.CreateDefaultContext()
+    fix_inputs(player, context, stimuli[3], T_HIT)
+    context.SetTime(T_HIT - 0.5)  # 0.5 s left: no room for a preparation and a 0.4 s hit
+    player.ExecuteForcedEvents(context)
+    state = player.player_state(context)
+    assert not state.stroke.fallback
+    hit = next(seg for stage, seg in state.plan.segments if stage == HITTING)
+    assert hit.duration < 0.4 - 1e-9
+    q, qd, _ = state.plan.evaluate(T_HIT)
+    np.testing.assert_allclose(q, Q_HIT, atol=1e-3)
+    np.testing.assert_allclose(qd, QD_HIT, atol=2e-2)
