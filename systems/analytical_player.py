@@ -21,7 +21,8 @@ It stops re-planning once the hitting stage has begun (paper section III-A). A r
 dropped, keeping the previous one, when the arm solution jumps to another configuration
 (> ``max_branch_change`` on a joint) while the hitting point moved less than
 ``research_distance``, or when the new plan leaves the joint position, velocity or acceleration
-limits. The player only sees
+limits or asks for more than 90 % of an actuator's effort limit (inverse dynamics along the plan:
+an acceleration limit alone let a plan ask the shoulder for twice its 75 N m). The player only sees
 what the camera sees: its inputs are the estimator's outputs, never the true ball state.
 
 Ports of :class:`AnalyticalPlayer`: inputs ``estimated_state`` (6: p, v) and ``estimator_status``
@@ -85,6 +86,7 @@ class PlannerConfig:
     replan_time: float = 0.002  # s
     max_branch_change: float = 0.5  # rad: a re-plan moving theta_hit further is another IK branch
     research_distance: float = 0.05  # m: a hitting point this far from the last re-aims fully
+    torque_fraction: float = 0.9  # of the effort limits a plan may ask for
     times: StageTimes = StageTimes()
 
 
@@ -116,6 +118,7 @@ class StrokePlanner:
         self.model = model or planner_ball_model()
         self.q_await = np.asarray(wp.AWAITING, dtype=float)
         self.acceleration_limit = np.asarray(wp.ACCELERATION_LIMIT, dtype=float)
+        self.effort_limit = np.asarray(wp.EFFORT_LIMIT, dtype=float)
         self.limits = JointLimits(np.asarray(wp.JOINT_LOWER, dtype=float),
                                   np.asarray(wp.JOINT_UPPER, dtype=float),
                                   np.asarray(wp.VELOCITY_LIMIT, dtype=float),
@@ -185,14 +188,27 @@ class StrokePlanner:
                 > self.config.replan_position
                 or abs(t_hit - previous.t_hit) > self.config.replan_time)
 
-    def feasible(self, plan: StagePlan) -> bool:
+    def feasible(self, plan: StagePlan, now: float = -np.inf) -> bool:
         """Within the joint position, velocity and acceleration limits everywhere (sampled at
-        200 Hz)."""
+        200 Hz), and within ``torque_fraction`` of the effort limits from ``now`` on (inverse
+        dynamics on the control plant at 50 Hz): the controller can then follow it, with the
+        rest of the torque left for tracking errors."""
         ext = plan_extremes(plan, rate=200.0)
-        return bool(np.all(ext["qdd_max"] <= self.acceleration_limit)
-                    and np.all(ext["qd_max"] <= self.limits.velocity)
-                    and np.all(ext["q_min"] >= self.limits.lower)
-                    and np.all(ext["q_max"] <= self.limits.upper))
+        if not (np.all(ext["qdd_max"] <= self.acceleration_limit)
+                and np.all(ext["qd_max"] <= self.limits.velocity)
+                and np.all(ext["q_min"] >= self.limits.lower)
+                and np.all(ext["q_max"] <= self.limits.upper)):
+            return False
+        if not hasattr(self.arm, "torques"):
+            return True
+        budget = self.config.torque_fraction * self.effort_limit
+        for _, seg in plan.segments:
+            if seg.t_end <= now:
+                continue
+            for t in np.arange(max(seg.t0, now), seg.t_end + 1e-9, 0.02):
+                if np.any(np.abs(self.arm.torques(*seg.evaluate(t))) > budget):
+                    return False
+        return True
 
     def plan(self, now: float, current: StagePlan, stroke: Stroke) -> StagePlan | None:
         """The current plan up to ``now`` followed by the stroke; None to keep waiting.
@@ -209,10 +225,10 @@ class StrokePlanner:
         plan = stroke_from(now, allow_wait=True)
         if plan is None:
             later = stroke_from(now + 1.0 / 60.0, allow_wait=False)
-            if self.feasible(later):
+            if self.feasible(later, now):
                 return None
             plan = stroke_from(now, allow_wait=False)
-        if not self.feasible(plan):
+        if not self.feasible(plan, now):
             return None  # not feasible for the arm: keep the current plan
         return StagePlan(current.truncated(now).segments + plan.segments)
 

@@ -286,6 +286,20 @@ class HittingIK:
             limit_margin=float(np.min(np.minimum(q - JOINT_LOWER, JOINT_UPPER - q))),
             attempts=attempts, solve_ms=1e3 * (time.perf_counter() - start))
 
+    # ----------------------------------------------------------------------------- dynamics
+    def torques(self, q, qdot, qddot) -> np.ndarray:
+        """Joint torques tau = M(q) q_ddot + C(q, q_dot) q_dot - tau_g(q) that the arm (with its
+        racket) needs to follow (q, q_dot, q_ddot): inverse dynamics on the control plant, the
+        same model the InverseDynamicsController uses."""
+        from pydrake.multibody.tree import MultibodyForces
+
+        self.plant.SetPositions(self.context, np.asarray(q, dtype=float))
+        self.plant.SetVelocities(self.context, np.asarray(qdot, dtype=float))
+        if not hasattr(self, "_forces"):
+            self._forces = MultibodyForces(self.plant)
+        return self.plant.CalcInverseDynamics(self.context, np.asarray(qddot, dtype=float),
+                                              self._forces)
+
     # ----------------------------------------------------------------------------- velocities
     def joint_velocities(self, q, v_racket, omega_racket=None,
                          null_gain: float = DEFAULT_NULL_GAIN) -> np.ndarray:
