@@ -93,6 +93,7 @@ class MoMPTrajectorySource(LeafSystem):
         self.config = config or MoMPConfig()
         self.limits = joint_limits()
         self.q_await = np.asarray(wp.AWAITING if q_await is None else q_await, dtype=float)
+        self._memo = None
         self._p = self.DeclareVectorInputPort("p_hit", 3)
         self._v = self.DeclareVectorInputPort("v_hit", 3)
         self._t = self.DeclareVectorInputPort("t_hit", 1)
@@ -177,15 +178,25 @@ class MoMPTrajectorySource(LeafSystem):
         state.get_mutable_abstract_state(self._index).set_value(
             _State(StagePlan(plan.truncated(now).segments + new.segments), stroke))
 
+    def _evaluate(self, context):
+        """(q, q_dot, q_ddot) of the stored plan now; the desired-state and -acceleration ports
+        of one step share one evaluation (the memo holds the plan, so its id stays unique)."""
+        plan, t = self.player_state(context).plan, context.get_time()
+        memo = self._memo
+        if memo is not None and memo[0] is plan and memo[1] == t:
+            return memo[2]
+        result = plan.evaluate(t)
+        self._memo = (plan, t, result)
+        return result
+
     def _calc_state(self, context, output):
-        q, qd, _ = self.player_state(context).plan.evaluate(context.get_time())
+        q, qd, _ = self._evaluate(context)
         out = output.get_mutable_value()
         out[:7] = q
         out[7:] = qd
 
     def _calc_accel(self, context, output):
-        output.get_mutable_value()[:] = self.player_state(context).plan.evaluate(
-            context.get_time())[2]
+        output.get_mutable_value()[:] = self._evaluate(context)[2]
 
     def _calc_stage(self, context, output):
         stage = self.player_state(context).plan.stage_at(context.get_time())

@@ -103,10 +103,15 @@ class SampledSegment:
         s = min(max(t - self.t0, 0.0), self.duration)
         k = min(int(s / self.dt), self._n - 1)
         u = s - k * self.dt
-        c = self.coeffs[k]
-        q = ((((c[:, 5] * u + c[:, 4]) * u + c[:, 3]) * u + c[:, 2]) * u + c[:, 1]) * u + c[:, 0]
-        v = (((5 * c[:, 5] * u + 4 * c[:, 4]) * u + 3 * c[:, 3]) * u + 2 * c[:, 2]) * u + c[:, 1]
-        a = ((20 * c[:, 5] * u + 12 * c[:, 4]) * u + 6 * c[:, 3]) * u + 2 * c[:, 2]
+        u2 = u * u
+        u3 = u2 * u
+        u4 = u3 * u
+        # Powers of u and their first and second derivatives: one (D, 6) x (6, 3) product.
+        powers = np.array(((1.0, 0.0, 0.0), (u, 1.0, 0.0), (u2, 2.0 * u, 2.0),
+                           (u3, 3.0 * u2, 6.0 * u), (u4, 4.0 * u3, 12.0 * u2),
+                           (u4 * u, 5.0 * u4, 20.0 * u3)))
+        r = self.coeffs[k] @ powers
+        q, v, a = r[:, 0], r[:, 1], r[:, 2]
         extra = t - self.t_end
         if extra > 0.0:
             q = q + v * extra
