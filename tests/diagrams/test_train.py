@@ -85,3 +85,21 @@ def test_momp_player_serves_end_to_end(artefacts, tmp_path):
                  "--serves", "2", "--seed", "3", "--json", str(out), "--quiet"]) == 0
     data = json.loads(out.read_text())
     assert data["summary"]["serves"] == 2 and len(data["episodes"]) == 2
+
+
+@pytest.mark.slow
+def test_momp_player_trained_on_60_teacher_serves_returns_default_serves(tmp_path):
+    """A small version of the acceptance run (docs/learned_player.md): at least the paper's 67 %
+    legal returns for MoMP with gamma = 1 (physical-model predictor, no GPR file needed)."""
+    from tt_drake.diagrams.serve import run_serves
+
+    data = tmp_path / "teacher"
+    collect(load_scenario(), "analytical", 60, 21, str(data), progress=False, workers=2)
+    library, crkr = tmp_path / "library.npz", tmp_path / "crkr.npz"
+    assert main(["train", "library", "--data", str(data), "--out", str(library)]) == 0
+    assert main(["train", "crkr", "--data", str(data), "--out", str(crkr)]) == 0
+    scenario = load_scenario()
+    scenario.learned.library, scenario.learned.crkr = str(library), str(crkr)
+    summary = run_serves(scenario, "momp", 40, seed=123, progress=False, workers=2)["summary"]
+    assert summary["return_rate"] >= 0.67
+    assert summary["robot_table_contacts"] == 0
