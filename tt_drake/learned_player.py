@@ -49,6 +49,7 @@ from tt_drake.stages import (
     StagePlan,
     StageTimes,
     follow_through_time,
+    quintic_coefficients,
 )
 
 __all__ = ["SampledSegment", "StagePrimitive", "blend_start_acceleration", "MoMPStroke",
@@ -81,15 +82,8 @@ class SampledSegment:
         """From a rollout on the uniform grid ``traj.t`` (starting at 0) shifted to start at t0."""
         t = np.asarray(traj.t, dtype=float)
         dt = float(t[1] - t[0])
-        q0, v0, a0 = traj.q[:-1], traj.qd[:-1], traj.qdd[:-1]
-        q1, v1, a1 = traj.q[1:], traj.qd[1:], traj.qdd[1:]
-        h = q1 - q0 - v0 * dt - 0.5 * a0 * dt * dt
-        dv = v1 - v0 - a0 * dt
-        da = a1 - a0
-        c3 = (10 * h - 4 * dv * dt + 0.5 * da * dt * dt) / dt**3
-        c4 = (-15 * h + 7 * dv * dt - da * dt * dt) / dt**4
-        c5 = (6 * h - 3 * dv * dt + 0.5 * da * dt * dt) / dt**5
-        coeffs = np.ascontiguousarray(np.stack([q0, v0, 0.5 * a0, c3, c4, c5], axis=-1))
+        coeffs = np.ascontiguousarray(quintic_coefficients(
+            traj.q[:-1], traj.qd[:-1], traj.qdd[:-1], traj.q[1:], traj.qd[1:], traj.qdd[1:], dt))
         return cls(t0, dt, coeffs, float(t[-1] - t[0]))
 
     @property

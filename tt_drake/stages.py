@@ -23,6 +23,19 @@ AWAITING, PREPARATION, HITTING, FOLLOW_THROUGH = "awaiting", "preparation", "hit
 STAGES = (AWAITING, PREPARATION, HITTING, FOLLOW_THROUGH)
 
 
+def quintic_coefficients(q0, v0, a0, q1, v1, a1, T) -> np.ndarray:
+    """Coefficients c_0..c_5 (last axis) of the quintic with q, q_dot, q_ddot = (q0, v0, a0) at
+    s = 0 and (q1, v1, a1) at s = T; element-wise over any leading shape (T broadcasts)."""
+    q0, v0, a0, q1, v1, a1 = (np.asarray(x, dtype=float) for x in (q0, v0, a0, q1, v1, a1))
+    h = q1 - q0 - v0 * T - 0.5 * a0 * T * T
+    dv = v1 - v0 - a0 * T
+    da = a1 - a0
+    c3 = (10 * h - 4 * dv * T + 0.5 * da * T * T) / T**3
+    c4 = (-15 * h + 7 * dv * T - da * T * T) / T**4
+    c5 = (6 * h - 3 * dv * T + 0.5 * da * T * T) / T**5
+    return np.stack([q0, v0, 0.5 * a0, c3, c4, c5], axis=-1)
+
+
 @dataclass(frozen=True)
 class Quintic:
     """q(t) = sum_k c_k (t - t0)^k, k = 0..5, per joint, on [t0, t0 + duration].
@@ -42,16 +55,7 @@ class Quintic:
         T = float(duration)
         if T <= 0.0:
             raise ValueError(f"segment duration must be > 0, got {T}")
-        q0, v0, a0, q1, v1, a1 = (np.asarray(x, dtype=float) for x in (q0, v0, a0, q1, v1, a1))
-        c0, c1, c2 = q0, v0, 0.5 * a0
-        # Remaining coefficients from the end conditions (standard quintic boundary solution).
-        h = q1 - q0 - v0 * T - 0.5 * a0 * T * T
-        dv = v1 - v0 - a0 * T
-        da = a1 - a0
-        c3 = (10 * h - 4 * dv * T + 0.5 * da * T * T) / T**3
-        c4 = (-15 * h + 7 * dv * T - da * T * T) / T**4
-        c5 = (6 * h - 3 * dv * T + 0.5 * da * T * T) / T**5
-        return cls(float(t0), T, np.stack([c0, c1, c2, c3, c4, c5], axis=1))
+        return cls(float(t0), T, quintic_coefficients(q0, v0, a0, q1, v1, a1, T))
 
     @property
     def t_end(self) -> float:
