@@ -38,7 +38,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector, LeafSystem
 
 from tt_drake import wam_params as wp
 from tt_drake.ball_model import BallModel, BallModelParams, CompliantBounceBallModel
@@ -48,7 +47,6 @@ from tt_drake.stages import (
     AWAITING,
     HITTING,
     PREPARATION,
-    STAGES,
     JointLimits,
     Quintic,
     StagePlan,
@@ -57,6 +55,7 @@ from tt_drake.stages import (
     plan_stroke,
 )
 from tt_drake.systems.immutable import Immutable
+from tt_drake.systems.stage_player import StagePlanPlayer
 
 
 @dataclass(frozen=True)
@@ -242,7 +241,7 @@ class _PlayerState(Immutable):
         self.bounce_spin = bounce_spin
 
 
-class AnalyticalPlayer(LeafSystem):
+class AnalyticalPlayer(StagePlanPlayer):
     def __init__(self, planner: StrokePlanner | None = None, rate: float = 60.0):
         super().__init__()
         self.planner = planner or StrokePlanner()
@@ -254,12 +253,6 @@ class AnalyticalPlayer(LeafSystem):
         # After the estimator's update (offset period / 3) of the same frame.
         self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.5 * period, self._update)
         self.DeclareForcedUnrestrictedUpdateEvent(self._update)
-        self.DeclareVectorOutputPort("desired_state", BasicVector(14), self._calc_state)
-        self.DeclareVectorOutputPort("desired_acceleration", BasicVector(7), self._calc_accel)
-        self.DeclareVectorOutputPort("stage", BasicVector(1), self._calc_stage)
-        self.DeclareAbstractOutputPort("stroke", lambda: AbstractValue.Make(object()),
-                                       self._calc_stroke)
-        self.DeclareVectorOutputPort("predicted_hit", BasicVector(4), self._calc_predicted_hit)
 
     def player_state(self, context) -> _PlayerState:
         return context.get_abstract_state(self._state_index).get_value()
@@ -300,33 +293,3 @@ class AnalyticalPlayer(LeafSystem):
         new_plan = self.planner.plan(now, plan, stroke)
         state.get_mutable_abstract_state(self._state_index).set_value(
             _PlayerState(plan if new_plan is None else new_plan, stroke, False, bounce_spin))
-
-    def _calc_state(self, context, output):
-        q, qd, _ = self.player_state(context).plan.evaluate(context.get_time())
-        out = output.get_mutable_value()
-        out[:7] = q
-        out[7:] = qd
-
-    def _calc_accel(self, context, output):
-        output.get_mutable_value()[:] = self.player_state(context).plan.evaluate(
-            context.get_time())[2]
-
-    def _calc_stage(self, context, output):
-        stage = self.player_state(context).plan.stage_at(context.get_time())
-        output.get_mutable_value()[0] = STAGES.index(stage)
-
-    def _calc_stroke(self, context, output):
-        output.set_value(self.player_state(context).stroke)
-
-    def _calc_predicted_hit(self, context, output):
-        """(p_hit, valid): where the current stroke expects to meet the ball (for drawing)."""
-        stroke = self.player_state(context).stroke
-        out = output.get_mutable_value()
-        if stroke is None:
-            out[:] = 0.0
-        else:
-            out[:3] = stroke.p_hit
-            out[3] = 1.0
-
-
-

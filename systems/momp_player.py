@@ -39,7 +39,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector, LeafSystem
 
 from tt_drake import wam_params as wp
 from tt_drake.learned_player import MoMPStroke, plan_momp_stroke, within_limits
@@ -48,7 +47,6 @@ from tt_drake.stages import (
     AWAITING,
     HITTING,
     PREPARATION,
-    STAGES,
     JointLimits,
     Quintic,
     StagePlan,
@@ -56,6 +54,7 @@ from tt_drake.stages import (
     plan_stroke,
 )
 from tt_drake.systems.immutable import Immutable
+from tt_drake.systems.stage_player import StagePlanPlayer
 
 
 @dataclass(frozen=True)
@@ -85,7 +84,7 @@ def joint_limits() -> JointLimits:
                        np.asarray(wp.ACCELERATION_LIMIT, dtype=float))
 
 
-class MoMPTrajectorySource(LeafSystem):
+class MoMPTrajectorySource(StagePlanPlayer):
     def __init__(self, library: MotorPrimitiveLibrary, stages: dict,
                  config: MoMPConfig | None = None, rate: float = 60.0, q_await=None):
         super().__init__()
@@ -93,7 +92,6 @@ class MoMPTrajectorySource(LeafSystem):
         self.config = config or MoMPConfig()
         self.limits = joint_limits()
         self.q_await = np.asarray(wp.AWAITING if q_await is None else q_await, dtype=float)
-        self._memo = None
         self._p = self.DeclareVectorInputPort("p_hit", 3)
         self._v = self.DeclareVectorInputPort("v_hit", 3)
         self._t = self.DeclareVectorInputPort("t_hit", 1)
@@ -105,12 +103,6 @@ class MoMPTrajectorySource(LeafSystem):
         # After the predictor (2/3 period) and HittingConfiguration (3/4 period) of the frame.
         self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.875 * period, self._update)
         self.DeclareForcedUnrestrictedUpdateEvent(self._update)
-        self.DeclareVectorOutputPort("desired_state", BasicVector(14), self._calc_state)
-        self.DeclareVectorOutputPort("desired_acceleration", BasicVector(7), self._calc_accel)
-        self.DeclareVectorOutputPort("stage", BasicVector(1), self._calc_stage)
-        self.DeclareVectorOutputPort("predicted_hit", BasicVector(4), self._calc_predicted_hit)
-        self.DeclareAbstractOutputPort("stroke", lambda: AbstractValue.Make(object()),
-                                       self._calc_stroke)
 
     def awaiting_plan(self, t: float = 0.0) -> StagePlan:
         zero = np.zeros(7)
@@ -178,38 +170,6 @@ class MoMPTrajectorySource(LeafSystem):
         state.get_mutable_abstract_state(self._index).set_value(
             _State(StagePlan(plan.truncated(now).segments + new.segments), stroke))
 
-    def _evaluate(self, context):
-        """(q, q_dot, q_ddot) of the stored plan now; the desired-state and -acceleration ports
-        of one step share one evaluation (the memo holds the plan, so its id stays unique)."""
-        plan, t = self.player_state(context).plan, context.get_time()
-        memo = self._memo
-        if memo is not None and memo[0] is plan and memo[1] == t:
-            return memo[2]
-        result = plan.evaluate(t)
-        self._memo = (plan, t, result)
-        return result
-
-    def _calc_state(self, context, output):
-        q, qd, _ = self._evaluate(context)
-        out = output.get_mutable_value()
-        out[:7] = q
-        out[7:] = qd
-
-    def _calc_accel(self, context, output):
-        output.get_mutable_value()[:] = self._evaluate(context)[2]
-
-    def _calc_stage(self, context, output):
-        stage = self.player_state(context).plan.stage_at(context.get_time())
-        output.get_mutable_value()[0] = STAGES.index(stage)
-
-    def _calc_predicted_hit(self, context, output):
-        stroke = self.player_state(context).stroke
-        out = output.get_mutable_value()
-        if stroke is None:
-            out[:] = 0.0
-        else:
-            out[:3] = stroke.stimulus[:3]
-            out[3] = 1.0
-
-    def _calc_stroke(self, context, output):
-        output.set_value(self.player_state(context).stroke)
+    @staticmethod
+    def hit_point(stroke):
+        return stroke.stimulus[:3]

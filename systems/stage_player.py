@@ -1,0 +1,74 @@
+"""The output side shared by the players that execute a stage plan.
+
+A player keeps, in its abstract state, an object with ``plan`` (a
+:class:`tt_drake.stages.StagePlan` or anything with ``evaluate(t)`` and ``stage_at(t)``) and
+``stroke`` (its planned stroke, or None). This base declares the ports the serve diagram wires:
+``desired_state`` (14: q, q_dot) and ``desired_acceleration`` (7) for the
+InverseDynamicsController, ``stage`` (1: index into :data:`tt_drake.stages.STAGES`), ``stroke``
+(abstract) and ``predicted_hit`` (4: where the stroke meets the ball, and a valid flag).
+
+The two desired-value ports are evaluated at every integrator stage; they share one plan
+evaluation per (plan, time), so each step costs one polynomial evaluation (DESIGN.md: O(1)).
+"""
+
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+from tt_drake.stages import STAGES
+
+
+class StagePlanPlayer(LeafSystem):
+    def __init__(self):
+        super().__init__()
+        self._memo = None
+        self.DeclareVectorOutputPort("desired_state", BasicVector(14), self._calc_state)
+        self.DeclareVectorOutputPort("desired_acceleration", BasicVector(7), self._calc_accel)
+        self.DeclareVectorOutputPort("stage", BasicVector(1), self._calc_stage)
+        self.DeclareVectorOutputPort("predicted_hit", BasicVector(4), self._calc_predicted_hit)
+        self.DeclareAbstractOutputPort("stroke", lambda: AbstractValue.Make(object()),
+                                       self._calc_stroke)
+
+    def player_state(self, context):
+        """The abstract state holding ``plan`` and ``stroke`` (subclasses)."""
+        raise NotImplementedError
+
+    @staticmethod
+    def hit_point(stroke):
+        """Where ``stroke`` expects to meet the ball (3 floats)."""
+        return stroke.p_hit
+
+    def _evaluate(self, context):
+        """(q, q_dot, q_ddot) of the stored plan now, evaluated once per (plan, time)."""
+        plan = self.player_state(context).plan
+        t = context.get_time()
+        memo = self._memo
+        if memo is not None and memo[0] is plan and memo[1] == t:
+            return memo[2]
+        result = plan.evaluate(t)
+        self._memo = (plan, t, result)
+        return result
+
+    def _calc_state(self, context, output):
+        q, qd, _ = self._evaluate(context)
+        out = output.get_mutable_value()
+        out[:7] = q
+        out[7:] = qd
+
+    def _calc_accel(self, context, output):
+        output.get_mutable_value()[:] = self._evaluate(context)[2]
+
+    def _calc_stage(self, context, output):
+        stage = self.player_state(context).plan.stage_at(context.get_time())
+        output.get_mutable_value()[0] = STAGES.index(stage)
+
+    def _calc_predicted_hit(self, context, output):
+        stroke = self.player_state(context).stroke
+        out = output.get_mutable_value()
+        if stroke is None:
+            out[:] = 0.0
+        else:
+            out[:3] = self.hit_point(stroke)
+            out[3] = 1.0
+
+    def _calc_stroke(self, context, output):
+        output.set_value(self.player_state(context).stroke)
