@@ -79,10 +79,8 @@ def add_wam(plant: MultibodyPlant, *, weld_to_world: bool = True, urdf: str | Pa
         plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(BASE_FRAME, instance),
                          base_pose_in_world())
     if scene_graph is not None and plant.geometry_source_is_registered():
-        bodies = [plant.get_body(index) for index in plant.GetBodyIndices(instance)]
-        geometries = plant.CollectRegisteredGeometries(bodies)
         scene_graph.collision_filter_manager().Apply(
-            CollisionFilterDeclaration().ExcludeWithin(geometries))
+            CollisionFilterDeclaration().ExcludeWithin(robot_geometries(plant, instance)))
     return instance
 
 

@@ -72,13 +72,6 @@ def hunt_crossley_restitution(dissipation: float, impact_speed: float) -> float:
     return float(np.interp(dissipation * abs(impact_speed), dv_grid, e_grid))
 
 
-def _inverse_restitution(e_target: float, impact_speed: float) -> float:
-    """The dissipation d that gives restitution ``e_target`` at ``impact_speed``."""
-    dv_grid, e_grid = _restitution_table()
-    dv = float(np.interp(-e_target, -e_grid, dv_grid))  # e decreases monotonically in d v
-    return dv / impact_speed
-
-
 @dataclass(frozen=True)
 class BallModelParams:
     """Everything the numpy ball model needs; defaults come from :mod:`tt_drake.constants`."""
