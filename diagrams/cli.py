@@ -8,6 +8,7 @@
     tt-drake train library|crkr --data DIR --out FILE [--primitives 300] [--samples 2500]
     tt-drake serve --player momp --library FILE [--crkr FILE] [--predictor FILE]
                    [--configuration crkr|analytical] ...
+    tt-drake serve --player crkr --crkr FILE [--predictor FILE] ...   (CrKR + teacher's quintics)
 
 Bad input (an unknown or malformed scenario field, a missing model or data file, an unknown
 distribution or player, N <= 0, an unwritable output path) gives one line naming the problem on
@@ -133,11 +134,11 @@ def _check_player(name: str) -> None:
 
 
 def _check_learned(player: str, scenario) -> None:
-    """Fail with one line before any simulation if the momp player's artefacts are unusable."""
-    if player == "momp":
-        from tt_drake.diagrams.episodes import load_learned_player
+    """Fail with one line before any simulation if a learned player's artefacts are unusable."""
+    from tt_drake.diagrams.episodes import LEARNED_PLAYERS, load_learned_player
 
-        load_learned_player(scenario)
+    if player in LEARNED_PLAYERS:
+        load_learned_player(scenario, primitives=player == "momp")
 
 
 def _serve(args) -> None:

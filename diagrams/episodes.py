@@ -77,9 +77,10 @@ def _analytical_player(builder: DiagramBuilder, world: World, controller,
     return [camera]
 
 
-def load_learned_player(scenario: Scenario) -> dict:
-    """Load and check the learned player's artefacts named in ``scenario.learned``; raise
-    PlayerError with one line naming the problem (missing, corrupt, another scenario)."""
+def load_learned_player(scenario: Scenario, primitives: bool = True) -> dict:
+    """Load and check the learned player's artefacts named in ``scenario.learned`` (the
+    primitive library only with ``primitives``); raise PlayerError with one line naming the
+    problem (missing, corrupt, another scenario)."""
     from tt_drake.constants import PLANES
     from tt_drake.hitting_point import HittingPointGPR, PredictorFileError
     from tt_drake.learned_player import (
@@ -93,15 +94,16 @@ def load_learned_player(scenario: Scenario) -> dict:
     if cfg.configuration not in SOURCES:
         raise PlayerError(f"unknown hitting configuration {cfg.configuration!r}; choose one of "
                           f"{', '.join(SOURCES)}")
-    if not cfg.library:
+    if primitives and not cfg.library:
         raise PlayerError("the momp player needs --library FILE (from tt-drake train library)")
     if cfg.configuration == "crkr" and not cfg.crkr:
-        raise PlayerError("the momp player with --configuration crkr needs --crkr FILE (from "
+        raise PlayerError("the learned player with --configuration crkr needs --crkr FILE (from "
                           "tt-drake train crkr)")
     out = {}
     try:
-        out["library"], out["stages"], _ = load_player_library(cfg.library, scenario.name,
-                                                               PLANES.hitting_y)
+        if primitives:
+            out["library"], out["stages"], _ = load_player_library(
+                cfg.library, scenario.name, PLANES.hitting_y)
         if cfg.configuration == "crkr":
             out["crkr"], _ = load_configuration_model(cfg.crkr, scenario.name, PLANES.hitting_y)
         out["gpr"] = HittingPointGPR.load(cfg.predictor) if cfg.predictor else None
@@ -110,15 +112,20 @@ def load_learned_player(scenario: Scenario) -> dict:
     return out
 
 
-def _momp_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario) -> list:
+def _learned_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario,
+                    primitives: bool = True) -> list:
     """The learned player (paper Fig. 1): camera -> estimator -> GPR hitting-point predictor ->
-    HittingConfiguration (CrKR or the analytical IK) -> MoMPTrajectorySource -> controller."""
+    HittingConfiguration (CrKR or the analytical IK) -> MoMPTrajectorySource -> controller.
+
+    Without ``primitives`` (the ``crkr`` player, paper section III-B.2) the trajectory source
+    moves between the stages with the teacher's quintics instead of the motor primitives: the
+    learned hitting configuration evaluated on its own."""
     from tt_drake.systems.analytical_player import PlannerConfig, StrokePlanner
     from tt_drake.systems.hitting_configuration import HittingConfiguration
     from tt_drake.systems.hitting_point_predictor import HittingPointPredictor
     from tt_drake.systems.momp_player import MoMPTrajectorySource
 
-    learned = load_learned_player(scenario)
+    learned = load_learned_player(scenario, primitives)
     camera, estimator = add_vision(builder, world, scenario)
     predictor = builder.AddNamedSystem("hitting_point_predictor",
                                        HittingPointPredictor(gpr=learned["gpr"]))
@@ -131,8 +138,8 @@ def _momp_player(builder: DiagramBuilder, world: World, controller, scenario: Sc
                                target_y=scenario.referee.target_y)
         configuration = HittingConfiguration("analytical", planner=StrokePlanner(config=config))
     configuration = builder.AddNamedSystem("hitting_configuration", configuration)
-    player = builder.AddNamedSystem("momp_player",
-                                    MoMPTrajectorySource(learned["library"], learned["stages"]))
+    player = builder.AddNamedSystem("momp_player", MoMPTrajectorySource(
+        learned.get("library"), learned.get("stages")))
     for name in ("p_hit", "v_hit", "t_hit", "valid"):
         builder.Connect(predictor.GetOutputPort(name), configuration.GetInputPort(name))
     for name in ("p_hit", "v_hit", "t_hit"):
@@ -148,8 +155,17 @@ def _momp_player(builder: DiagramBuilder, world: World, controller, scenario: Sc
     return [camera]
 
 
+def _momp_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario) -> list:
+    return _learned_player(builder, world, controller, scenario, primitives=True)
+
+
+def _crkr_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario) -> list:
+    return _learned_player(builder, world, controller, scenario, primitives=False)
+
+
 PLAYERS: dict[str, Callable] = {"idle": _idle_player, "analytical": _analytical_player,
-                                "momp": _momp_player}
+                                "momp": _momp_player, "crkr": _crkr_player}
+LEARNED_PLAYERS = ("momp", "crkr")
 
 
 @dataclass
@@ -163,6 +179,7 @@ class EpisodeResult:
     ball_path: np.ndarray | None = field(default=None, repr=False)
     arm: dict | None = None
     record: dict | None = field(default=None, repr=False)  # demonstration data (collect)
+    stroke: dict | None = None  # the learned player's last plan (stroke_summary)
 
     def as_dict(self) -> dict:
         return {
@@ -173,7 +190,23 @@ class EpisodeResult:
             "wall_time": round(self.wall_time, 4),
             **self.outcome.as_dict(),
             **({"arm": self.arm} if self.arm is not None else {}),
+            **({"stroke": self.stroke} if self.stroke is not None else {}),
         }
+
+
+def stroke_summary(stroke) -> dict | None:
+    """The learned player's last (re-)plan of an episode, for JSON: the stimulus it used, which
+    hitting primitives carried the stroke with their mixture weights nu_i (Eq. 6), how many
+    re-plans, and whether it fell back to the teacher's quintics (None for other players)."""
+    from tt_drake.learned_player import MoMPStroke
+
+    if not isinstance(stroke, MoMPStroke):
+        return None
+    return {"stimulus": [round(float(c), 5) for c in stroke.stimulus],
+            "t_hit": round(float(stroke.t_hit), 5),
+            "primitives": [int(i) for i in stroke.primitives],
+            "mixture": [round(float(w), 6) for w in stroke.mixture],
+            "replans": int(stroke.replans), "fallback": bool(stroke.fallback)}
 
 
 class ServeDiagram:
@@ -211,6 +244,10 @@ class ServeDiagram:
             self.torque_logger = builder.AddNamedSystem("torque_logger", VectorLogSink(7, period))
             builder.Connect(self.controller.GetOutputPort("actuation"),
                             self.torque_logger.get_input_port())
+        self.player = None
+        for name in ("analytical_player", "momp_player"):
+            if builder.HasSubsystemNamed(name):
+                self.player = builder.GetSubsystemByName(name)
         self.recorder = None
         if record:
             from tt_drake.diagrams.demonstrations import DemonstrationRecorder
@@ -232,13 +269,11 @@ class ServeDiagram:
                     "estimate_status_logger", VectorLogSink(2, 1.0 / 60))
                 builder.Connect(estimator.GetOutputPort("status"),
                                 self.status_logger.get_input_port())
-            for name in ("analytical_player", "momp_player"):
-                if builder.HasSubsystemNamed(name):
-                    player_system = builder.GetSubsystemByName(name)
-                    self.prediction_logger = builder.AddNamedSystem(
-                        "prediction_logger", VectorLogSink(4, 1.0 / 60))
-                    builder.Connect(player_system.GetOutputPort("predicted_hit"),
-                                    self.prediction_logger.get_input_port())
+            if self.player is not None:
+                self.prediction_logger = builder.AddNamedSystem(
+                    "prediction_logger", VectorLogSink(4, 1.0 / 60))
+                builder.Connect(self.player.GetOutputPort("predicted_hit"),
+                                self.prediction_logger.get_input_port())
         self.visualizer = None
         if meshcat is not None:
             from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
@@ -276,10 +311,17 @@ class ServeDiagram:
         plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
         self.world.plant.SetPositions(plant_context, self.world.robot, np.asarray(AWAITING))
 
-    def run(self, seed: int, start_time: float = 0.0) -> EpisodeResult:
+    @property
+    def library(self):
+        """The momp player's primitive library (None for other players)."""
+        return getattr(self.player, "library", None)
+
+    def run(self, seed: int, start_time: float = 0.0, gamma=None) -> EpisodeResult:
         """Simulate one serve episode from ``seed``, starting the clock at ``start_time`` (used to
-        lay several episodes end to end in one Meshcat recording)."""
+        lay several episodes end to end in one Meshcat recording). ``gamma``: the momp player's
+        responsibilities for this episode (default: the loaded library's)."""
         wall = time.perf_counter()
+        self._set_gamma(gamma)
         self.context.SetTimeStateAndParametersFrom(self._initial)
         self.context.SetTime(start_time)
         for k, system in enumerate(self.seeded):  # the launcher gets the episode seed itself
@@ -311,8 +353,26 @@ class ServeDiagram:
         record = None
         if self.recorder is not None:
             record = self.recorder.extract(self.diagram, self.context, outcome)
+        stroke = None
+        if self.player is not None:
+            stroke = stroke_summary(self.player.GetOutputPort("stroke").Eval(
+                self.player.GetMyContextFromRoot(self.context)))
         return EpisodeResult(seed, list(serve.launch_state), list(crossing), duration, outcome,
-                             time.perf_counter() - wall, path, arm, record)
+                             time.perf_counter() - wall, path, arm, record, stroke)
+
+    def _set_gamma(self, gamma) -> None:
+        library = self.library
+        if library is None:
+            if gamma is not None:
+                raise PlayerError("responsibilities gamma apply to the momp player only")
+            return
+        if not hasattr(self, "_gamma0"):
+            self._gamma0 = library.gamma.copy()
+        g = self._gamma0 if gamma is None else np.asarray(gamma, dtype=float)
+        if g.shape != self._gamma0.shape or np.any(g < 0) or not np.any(g > 0):
+            raise PlayerError(f"gamma must be {self._gamma0.shape[0]} non-negative values, not "
+                              "all zero")
+        library.gamma = g.copy()
 
     def _beliefs(self) -> dict:
         """Estimated ball path and predicted hitting points (with their times) of the episode."""
@@ -360,4 +420,7 @@ def summarize(results: list[EpisodeResult]) -> dict:
         summary["max_joint_speed"] = max(a["max_joint_speed"] for a in arms)
         summary["episodes_with_saturation"] = sum(a["saturated_fraction"] > 0 for a in arms)
         summary["robot_table_contacts"] = sum("robot_table" in r.outcome.faults for r in results)
+    strokes = [r.stroke for r in results if r.stroke is not None]
+    if strokes:
+        summary["fallback_strokes"] = sum(s["fallback"] for s in strokes)
     return summary

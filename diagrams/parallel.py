@@ -24,25 +24,39 @@ def _init(scenario: Scenario, player: str, make_diagram) -> None:
     _WORKER["diagram"] = make_diagram(scenario, player)
 
 
-def _run(seed: int) -> EpisodeResult:
-    return _WORKER["diagram"].run(seed)
+def _run(task: tuple) -> EpisodeResult:
+    seed, gamma = task
+    return _WORKER["diagram"].run(seed, gamma=gamma)
 
 
 def run_episodes(scenario: Scenario, player: str, seeds: Iterable[int], workers: int = 1,
-                 make_diagram: Callable = ServeDiagram) -> Iterator[EpisodeResult]:
-    """Yield the episodes of ``seeds`` in order (as they finish, in order)."""
+                 make_diagram: Callable = ServeDiagram, gamma=None,
+                 executor: str = "local") -> Iterator[EpisodeResult]:
+    """Yield the episodes of ``seeds`` in order (as they finish, in order). ``gamma``: the momp
+    player's responsibilities for all of them (default: its library's). ``executor``: ``local``
+    (forked processes) or another name in :data:`EXECUTORS`."""
     seeds = list(seeds)
+    if executor not in EXECUTORS:
+        raise ValueError(f"unknown executor {executor!r}; choose one of {', '.join(EXECUTORS)}")
+    if executor != "local":
+        yield from EXECUTORS[executor](scenario, player, seeds, workers, make_diagram, gamma)
+        return
     if workers <= 1 or len(seeds) <= 1:
         diagram = make_diagram(scenario, player)
         for seed in seeds:
-            yield diagram.run(seed)
+            yield diagram.run(seed, gamma=gamma)
         return
     context = multiprocessing.get_context("fork")
     pool = context.Pool(min(workers, len(seeds)), initializer=_init,
                         initargs=(scenario, player, make_diagram))
     try:
-        yield from pool.imap(_run, seeds, chunksize=1)
+        yield from pool.imap(_run, [(seed, gamma) for seed in seeds], chunksize=1)
         pool.close()
     finally:
         pool.terminate()
         pool.join()
+
+
+# Executors other than ``local``: name -> function(scenario, player, seeds, workers, make_diagram,
+# gamma) yielding EpisodeResults in seed order.
+EXECUTORS: dict[str, Callable] = {"local": None}

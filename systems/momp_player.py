@@ -23,6 +23,9 @@ shape.) If none is inside the limits the player keeps its previous plan if it ha
 otherwise falls back to the teacher's quintic stages (:func:`tt_drake.stages.plan_stroke`) to the
 same hitting configuration; ``MoMPStroke.fallback`` records it.
 
+Without a library (``library=None``: the ``crkr`` player of paper section III-B.2) every plan is
+the teacher's quintic stages to the hitting configuration: the learned configuration on its own.
+
 Each stage is sampled once per plan at 500 Hz into one quintic per interval
 (:class:`tt_drake.learned_player.SampledSegment`); the output ports evaluate it in O(1).
 
@@ -85,7 +88,7 @@ def joint_limits() -> JointLimits:
 
 
 class MoMPTrajectorySource(StagePlanPlayer):
-    def __init__(self, library: MotorPrimitiveLibrary, stages: dict,
+    def __init__(self, library: MotorPrimitiveLibrary | None, stages: dict | None,
                  config: MoMPConfig | None = None, rate: float = 60.0, q_await=None):
         super().__init__()
         self.library, self.stages = library, stages
@@ -143,7 +146,26 @@ class MoMPTrajectorySource(StagePlanPlayer):
             return
         x = np.r_[p_hit, v_hit]
         preparing = plan.stage_at(now) == PREPARATION
-        new = None
+        new, idx, nu = self._plan_primitives(now, plan, x, t_hit, q_hit, qd_hit, preparing)
+        fallback = new is None and self.library is not None
+        if new is None:
+            if fallback and old.stroke is not None:
+                return  # keep the feasible plan made before
+            new = plan_stroke(now, plan.evaluate(now), t_hit, q_hit, qd_hit, self.q_await,
+                              self.limits, self.config.times, preparing, allow_wait=False)
+            idx, nu = np.zeros(0, dtype=int), np.zeros(0)
+        replans = 1 if old.stroke is None else old.stroke.replans + 1
+        stroke = MoMPStroke(x, t_hit, np.array(q_hit), np.array(qd_hit), idx, nu, replans,
+                            fallback)
+        state.get_mutable_abstract_state(self._index).set_value(
+            _State(StagePlan(plan.truncated(now).segments + new.segments), stroke))
+
+    def _plan_primitives(self, now, plan, x, t_hit, q_hit, qd_hit, preparing):
+        """The first motor-primitive plan inside the joint limits (hitting-stage durations tried
+        in turn), as (plan, primitive indices, mixture weights); (None, None, None) if there is
+        none or the player has no library (the ``crkr`` player: teacher's quintics)."""
+        if self.library is None:
+            return None, None, None
         for hitting in (*self.config.hitting_durations, None):
             try:
                 new, idx, nu = plan_momp_stroke(
@@ -153,22 +175,8 @@ class MoMPTrajectorySource(StagePlanPlayer):
             except ValueError:
                 continue
             if within_limits(new, self.limits):
-                break
-        else:
-            new = None
-        fallback = new is None
-        if fallback:
-            if old.stroke is not None:
-                return  # keep the feasible plan made before
-            state_now = plan.evaluate(now)
-            new = plan_stroke(now, state_now, t_hit, q_hit, qd_hit, self.q_await, self.limits,
-                              self.config.times, preparing, allow_wait=False)
-            idx, nu = idx[:0], nu[:0]
-        replans = 1 if old.stroke is None else old.stroke.replans + 1
-        stroke = MoMPStroke(x, t_hit, np.array(q_hit), np.array(qd_hit), idx, nu, replans,
-                            fallback)
-        state.get_mutable_abstract_state(self._index).set_value(
-            _State(StagePlan(plan.truncated(now).segments + new.segments), stroke))
+                return new, idx, nu
+        return None, None, None
 
     @staticmethod
     def hit_point(stroke):
