@@ -9,6 +9,7 @@
     tt-drake serve --player momp --library FILE [--crkr FILE] [--predictor FILE]
                    [--configuration crkr|analytical] ...
     tt-drake serve --player crkr --crkr FILE [--predictor FILE] ...   (CrKR + teacher's quintics)
+    tt-drake reproduce --out DIR [--quick] [--workers N] [--executor local|ray]
 
 Bad input (an unknown or malformed scenario field, a missing model or data file, an unknown
 distribution or player, N <= 0, an unwritable output path) gives one line naming the problem on
@@ -107,6 +108,17 @@ def build_parser() -> argparse.ArgumentParser:
     evalp.add_argument("--seed", type=int, default=1)
     evalp.add_argument("--json", default=None, help="write the metrics as JSON")
     evalp.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    rep = sub.add_parser("reproduce", help="the paper's experiments from nothing, with a report "
+                                           "(resumable)")
+    rep.add_argument("--out", required=True, help="run folder (created, or resumed)")
+    rep.add_argument("--quick", action="store_true",
+                     help="every stage on few serves (minutes; the CI run)")
+    rep.add_argument("--workers", type=_positive_int, default=None,
+                     help="parallel worker processes (default: all cores)")
+    rep.add_argument("--executor", default="local",
+                     help="where rollouts run: local (default) or ray")
+    rep.add_argument("--quiet", action="store_true", help="no progress output")
     return parser
 
 
@@ -216,7 +228,18 @@ def _train(args) -> None:
     print(format_train(summary))
 
 
-COMMANDS = {"serve": _serve, "bench": _bench, "collect": _collect, "models": _models,
+def _reproduce(args) -> None:
+    from tt_drake.diagrams.reproduce import reproduce
+
+    report = reproduce(args.out, args.quick, args.workers, args.executor,
+                       progress=not args.quiet)
+    for row in report["table"]:
+        print(f"{row['experiment']}: paper {row['paper']}, ours {row['ours']}")
+    print(f"wrote {args.out}/report.md and {args.out}/report.json")
+
+
+COMMANDS = {"reproduce": _reproduce, "serve": _serve, "bench": _bench, "collect": _collect,
+            "models": _models,
             "train-predictor": _train_predictor, "eval-predictor": _eval_predictor,
             "train": _train}
 
@@ -225,6 +248,7 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from tt_drake.diagrams.collect import DatasetError
     from tt_drake.diagrams.episodes import PlayerError
     from tt_drake.diagrams.predictor import PredictorError
+    from tt_drake.diagrams.reproduce import ReproduceError
     from tt_drake.diagrams.scenario import ScenarioError
     from tt_drake.diagrams.train import TrainError
     from tt_drake.hitting_point import PredictorFileError
@@ -234,7 +258,8 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from tt_drake.systems.world import ModelFileError
 
     return (CliError, ScenarioError, ServeError, PlayerError, ModelFileError, OutputError,
-            PredictorError, PredictorFileError, DatasetError, TrainError, LearnedArtefactError)
+            PredictorError, PredictorFileError, DatasetError, TrainError, LearnedArtefactError,
+            ReproduceError)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -204,6 +204,8 @@ def stroke_summary(stroke) -> dict | None:
         return None
     return {"stimulus": [round(float(c), 5) for c in stroke.stimulus],
             "t_hit": round(float(stroke.t_hit), 5),
+            "theta_hit": [round(float(c), 6) for c in stroke.q_hit],
+            "theta_dot_hit": [round(float(c), 6) for c in stroke.qd_hit],
             "primitives": [int(i) for i in stroke.primitives],
             "mixture": [round(float(w), 6) for w in stroke.mixture],
             "replans": int(stroke.replans), "fallback": bool(stroke.fallback)}

@@ -394,7 +394,10 @@ def query_time(gpr: HittingPointGPR, X: np.ndarray, repeats: int = 2000) -> dict
 
 
 def eval_predictor(model: str, serves: int, seed: int, json_path: str | None = None,
-                   workers: int = 2, progress: bool = True) -> dict:
+                   workers: int = 2, progress: bool = True, keep_errors: bool = False) -> dict:
+    """GPR and physical model against the true crossings of held-out serves. With
+    ``keep_errors`` the result also holds ``errors``: the GPR's predicted-minus-true values
+    (n, 7) in the report units (mm, mm/s, ms), not written to the JSON."""
     from tt_drake.outputs import check_writable, write_json_atomic
 
     gpr = HittingPointGPR.load(model)
@@ -426,6 +429,8 @@ def eval_predictor(model: str, serves: int, seed: int, json_path: str | None = N
     }
     if json_path:
         write_json_atomic(json_path, data)
+    if keep_errors:
+        data["errors"] = (G - Y) * 1000.0
     return data
 
 

@@ -155,24 +155,37 @@ def train_library(data_dir, out, primitives: int = 300, dmp: HittingDMP | None =
 
 
 def train_crkr(data_dir, out, samples: int = 2500) -> dict:
-    """Write the CrKR hitting-configuration model; returns a summary."""
-    from tt_drake.systems.hitting_ik import HITTING_COMFORT
-
+    """Write the CrKR hitting-configuration model from a teacher dataset; returns a summary."""
     check_writable(out)
     data = _load(data_dir)
     ok = _successful(data)[:samples]
-    x = data["stimulus"][ok, :6]
-    y = np.hstack([data["q_hit"][ok], data["qd_hit"][ok]])
-    costs = comfort_cost(data["q_hit"][ok], HITTING_COMFORT) + COST_FLOOR
+    return fit_crkr(data["stimulus"][ok, :6], data["q_hit"][ok], data["qd_hit"][ok], out,
+                    _meta(data, data_dir, len(ok)))
+
+
+def fit_crkr(x, q_hit, qd_hit, out, meta: dict) -> dict:
+    """Fit the CrKR map on pairs (stimulus (n, 6) -> theta_hit, theta_dot_hit (n, 7) each) and
+    write it to ``out`` with ``meta`` (scenario, hitting_y, data provenance); returns a summary.
+    Used on the teacher's pairs (``train crkr``) and on a learned player's own successful
+    strokes (policy iteration, ``tt-drake reproduce``)."""
+    from tt_drake.systems.hitting_ik import HITTING_COMFORT
+
+    check_writable(out)
+    x, q_hit, qd_hit = (np.asarray(a, dtype=float) for a in (x, q_hit, qd_hit))
+    if (len(x) < 2 or x.shape[1:] != (6,) or q_hit.shape != (len(x), 7)
+            or qd_hit.shape != q_hit.shape):
+        raise TrainError(f"CrKR needs at least 2 pairs of a 6-D stimulus and 7 + 7 joint values, "
+                         f"got {x.shape}, {q_hit.shape}, {qd_hit.shape}")
+    y = np.hstack([q_hit, qd_hit])
+    costs = comfort_cost(q_hit, HITTING_COMFORT) + COST_FLOOR
     sd = _spread(x)
     h = CRKR_BANDWIDTH_SCALE * len(x) ** (-1.0 / 9.0) * np.where(sd > 0, sd, 1.0)
     model = ConfigurationModel.fit(x, y, costs, h, CRKR_LAMBDA)
-    meta = {**_meta(data, data_dir, len(ok)), "inputs": "p_hit, v_hit (6)",
+    meta = {**meta, "samples": int(len(x)), "inputs": "p_hit, v_hit (6)",
             "outputs": "theta_hit (7), theta_dot_hit (7)",
             "comfort_posture": list(HITTING_COMFORT), "cost_floor": COST_FLOOR}
     save_configuration_model(out, model, meta)
-    return {"artefact": "crkr", "out": str(out), "samples": len(ok),
-            "bandwidths": h.round(4).tolist(), **meta}
+    return {"artefact": "crkr", "out": str(out), "bandwidths": h.round(4).tolist(), **meta}
 
 
 def format_train(summary: dict) -> str:

@@ -1,0 +1,189 @@
+"""The report of ``tt-drake reproduce``: the paper's table next to ours, and the plots.
+
+``DIR/report.json`` holds every stage's result and :data:`PAPER`'s rows with ours; ``report.md``
+the same table in Markdown with each row's command and seed; ``DIR/plots/`` the PNG figures
+(:mod:`tt_drake.diagrams.report_plots`). Written from whatever stages have finished, so it can be
+read part-way through a run.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from tt_drake.outputs import write_json_atomic, write_text_atomic
+
+# The paper's figures (Muelling, Kober, Peters 2010, section III), as fractions.
+PAPER = {
+    "gpr_nmse": ("GPR virtual hitting point: largest nMSE over the outputs", "< 0.01", 0.01),
+    "crkr_1": ("CrKR, policy iteration 1: legal return / on target", "94 % / 48 %", 0.94),
+    "crkr_2": ("CrKR, policy iteration 2: legal return / on target", "95 % / 63 %", 0.95),
+    "single": ("Single primitives alone: legal-return range", "23 % - 89 %", None),
+    "gamma1": ("MoMP, gamma = 1 (CrKR): legal return", "67 %", 0.67),
+    "gamma1_ik": ("MoMP, gamma = 1, analytical IK instead of CrKR: legal return", "-", None),
+    "pruned": ("Responsibility learning: primitives pruned (their earlier success)",
+               "about 27 % (30 %)", None),
+    "final": ("Learned MoMP player (responsibilities learned): legal return / on target",
+              "94 %", 0.94),
+    "real": ("Learned MoMP player on real serves (Ryu & Kim data): legal return / on target",
+             "-", None),
+}
+
+
+def _pct(x) -> str:
+    return "-" if x is None else f"{100.0 * x:.1f} %"
+
+
+def _row(key: str, ours: str, value, serves, command: str) -> dict:
+    what, paper_text, paper_value = PAPER[key]
+    row = {"key": key, "experiment": what, "paper": paper_text, "ours": ours, "value": value,
+           "serves": serves, "command": command}
+    if paper_value is not None and value is not None:
+        if key == "gpr_nmse":
+            row["meets_paper"] = value < paper_value
+        else:
+            row["meets_paper"] = value >= paper_value
+            if not row["meets_paper"]:
+                row["shortfall"] = f"{100.0 * (paper_value - value):.1f} points below the paper"
+    return row
+
+
+def table_rows(results: dict) -> list[dict]:
+    """Our figure for every paper row whose stage has finished."""
+    rows = []
+    pred = results.get("predictor")
+    if pred:
+        rows.append(_row("gpr_nmse", f"{pred['max_nmse']:.4f}", pred["max_nmse"],
+                         pred["eval"]["serves"], pred["command"]))
+    crkr = results.get("crkr")
+    if crkr:
+        for it in crkr["iterations"][:2]:
+            rows.append(_row(f"crkr_{it['iteration']}",
+                             f"{_pct(it['return_rate'])} / {_pct(it['target_rate'])}",
+                             it["return_rate"], it["serves"],
+                             f"--player crkr --crkr DIR/crkr/crkr_{it['iteration']}.npz --seed "
+                             f"{it['seed']}"))
+    single = results.get("single")
+    if single:
+        rows.append(_row("single", f"{_pct(single['min_return'])} - "
+                                   f"{_pct(single['max_return'])} ({len(single['primitives'])} "
+                                   "primitives)", None, single["serves"],
+                         f"gamma one-hot, --seed {single['seed']}"))
+    g1 = results.get("gamma1")
+    if g1:
+        for key, conf in (("gamma1", "crkr"), ("gamma1_ik", "analytical")):
+            rows.append(_row(key, f"{_pct(g1[conf]['return_rate'])} (on target "
+                                  f"{_pct(g1[conf]['target_rate'])})", g1[conf]["return_rate"],
+                             g1["serves"], f"--player momp --configuration {conf} --seed "
+                                           f"{g1['seed']}"))
+    resp = results.get("responsibility")
+    if resp:
+        earlier = resp["pruned_earlier_return"]
+        rows.append(_row("pruned", f"{_pct(resp['pruned_share'])} ({_pct(earlier)})",
+                         resp["pruned_share"], resp["rollouts"],
+                         f"{resp['rollouts']} rollouts in batches of {resp['batch']}, --seed "
+                         f"{resp['seed']}+batch"))
+    final = results.get("final")
+    if final:
+        for key in ("default", "real"):
+            r = final[key]
+            rows.append(_row("final" if key == "default" else "real",
+                             f"{_pct(r['return_rate'])} / {_pct(r['target_rate'])}",
+                             r["return_rate"], r["serves"],
+                             f"--player momp --library DIR/responsibility/library_learned.npz "
+                             f"--distribution {key} --seed {r['seed']}"))
+    return rows
+
+
+def _plots(run, results: dict) -> list[str]:
+    from tt_drake.diagrams import report_plots as rp
+    from tt_drake.hitting_point import OUTPUT_NAMES, OUTPUT_UNITS
+    from tt_drake.referee_rules import RefereeConfig
+
+    folder = run.root / "plots"
+    folder.mkdir(exist_ok=True)
+    written = []
+    resp = results.get("responsibility")
+    if resp and resp["curve"]:
+        curve = np.array(resp["curve"])
+        written.append(rp.plot_learning_curve(
+            folder / "responsibility_learning.png",
+            [{"label": "legal return", "x": curve[:, 0], "y": curve[:, 1]},
+             {"label": "on target", "x": curve[:, 0], "y": curve[:, 2]},
+             {"label": "share pruned", "x": curve[:, 0], "y": curve[:, 3] / resp["primitives"]}],
+            xlabel="rollouts", ylabel="per batch", title="Responsibility learning (Algorithm 3)",
+            paper={"final success": 0.94, "gamma = 1": 0.67}))
+        from tt_drake.artefacts import load_artefact
+
+        state, _ = load_artefact(run.root / "responsibility" / "state.npz",
+                                 "responsibility-learning")
+        written.append(rp.plot_gamma_histogram(
+            folder / "responsibilities.png", np.ones_like(state["gamma"]), state["gamma"],
+            threshold=float(resp["threshold"])))
+    crkr = results.get("crkr")
+    if crkr:
+        its = crkr["iterations"]
+        x = np.array([it["iteration"] for it in its], dtype=float)
+        written.append(rp.plot_learning_curve(
+            folder / "crkr_policy_iteration.png",
+            [{"label": "legal return", "x": x, "y": np.array([it["return_rate"] for it in its])},
+             {"label": "on target", "x": x, "y": np.array([it["target_rate"] for it in its])}],
+            xlabel="policy iteration", ylabel="rate", title="CrKR hitting configuration",
+            paper={"return, iteration 2": 0.95, "on target, iteration 2": 0.63}))
+    if results.get("final"):
+        points = {}
+        for key in ("default", "real"):
+            path = run.root / "final" / f"landings_{key}.npy"
+            if path.exists():
+                points[f"{key} serves"] = np.load(path)
+        if points:
+            referee = RefereeConfig()
+            written.append(rp.plot_landing_points(
+                folder / "landing_points.png", points,
+                target=(referee.target_x, referee.target_y), target_radius=referee.target_radius))
+    errors = run.root / "predictor" / "errors.npy"
+    if errors.exists():
+        keep = [k for k, n in enumerate(OUTPUT_NAMES) if n != "p_y"]
+        written.append(rp.plot_prediction_errors(
+            folder / "prediction_errors.png", np.load(errors)[:, keep],
+            [OUTPUT_NAMES[k] for k in keep], [OUTPUT_UNITS[k] for k in keep]))
+    return [str(Path(p).relative_to(run.root)) for p in written]
+
+
+def write_report(run) -> dict:
+    from tt_drake.diagrams.reproduce import STAGES
+
+    results = {stage: run.result(stage) for stage in STAGES}
+    results = {k: v for k, v in results.items() if v is not None}
+    rows = table_rows(results)
+    plots = _plots(run, results)
+    report = {"quick": run.quick, "config": run.config.to_dict(), "workers": run.workers,
+              "executor": run.executor, "table": rows, "stages": results, "plots": plots,
+              "wall_seconds": round(sum(r.get("wall_seconds", 0.0) for r in results.values()),
+                                    1)}
+    write_json_atomic(run.root / "report.json", report)
+    write_text_atomic(run.root / "report.md", format_markdown(report))
+    return report
+
+
+def format_markdown(report: dict) -> str:
+    kind = "quick (CI-sized: few serves, figures are noisy)" if report["quick"] else "full"
+    lines = [f"# tt-drake reproduce: {kind} run", "",
+             f"Stages finished: {', '.join(report['stages'])}; total stage time "
+             f"{report['wall_seconds'] / 60:.1f} min on {report['workers']} workers "
+             f"({report['executor']}).", "",
+             "| experiment | paper | ours | serves | command / seed |", "|---|---|---|---|---|"]
+    for r in report["table"]:
+        ours = r["ours"] + (f" ({r['shortfall']})" if "shortfall" in r else "")
+        lines.append(f"| {r['experiment']} | {r['paper']} | {ours} | {r['serves']} | "
+                     f"`{r['command']}` |")
+    lines += ["", "Stage times: " + ", ".join(f"{k} {v.get('wall_seconds', 0) / 60:.1f} min"
+                                             for k, v in report["stages"].items()), ""]
+    lines += [f"![{Path(p).stem}]({p})" for p in report["plots"]]
+    return "\n".join(lines) + "\n"
+
+
+def load_report(folder) -> dict:
+    return json.loads((Path(folder) / "report.json").read_text())

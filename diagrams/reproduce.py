@@ -1,0 +1,469 @@
+"""``tt-drake reproduce``: the paper's experiments (section III) from nothing, in one command.
+
+    tt-drake reproduce --out DIR [--quick] [--workers N] [--executor local|ray]
+
+Stages, in order (each a function below; :data:`STAGES`):
+
+1. ``teacher``: the analytical player's demonstrations (``tt-drake collect``);
+2. ``predictor``: the GPR virtual-hitting-point model, trained on one seed's serves and evaluated
+   on held-out serves of another (section III-B.1);
+3. ``library``: 300 hitting primitives + the stage DMPs imitated from the teacher (section III-C);
+4. ``crkr``: CrKR hitting configuration by policy iteration (section III-B.2): iteration 1 is
+   trained on the teacher's pairs; each iteration is evaluated with the ``crkr`` player (CrKR +
+   the teacher's quintic stages) and the next is trained on that player's own successful strokes
+   (its stimulus and the configuration it used), until the return rate stops improving;
+5. ``single``: a random sample of library primitives, each alone (gamma one-hot);
+6. ``gamma1``: the mixture with gamma = 1 (CrKR, and with the analytical IK instead);
+7. ``responsibility``: responsibility learning (Algorithm 3, Eqs. 10-11) in batches of rollouts;
+8. ``final``: the learned player on ``final_serves`` default serves and on ``real`` serves.
+
+Checkpoints. ``DIR/config.json`` fixes the run's settings (a DIR holding another run is refused).
+Every rollout stage writes its episodes in chunks of :data:`CHUNK` (``episodes_00000.json`` ...),
+responsibility learning its state after every batch, and every stage ``result.json`` last: a
+stage with a result is skipped, an interrupted stage resumes at its first missing chunk. Files
+are written atomically. The report (``report.md``, ``report.json``, ``plots/*.png``) is written
+from the stages' results at the end of every run.
+
+Seeds: stage k's serves are ``episode_seed(seed, i)`` with the stage's own ``seed`` in
+:class:`ReproduceConfig`; every figure can be replayed with ``tt-drake serve`` and the printed
+seed.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import sys
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from tt_drake.outputs import write_json_atomic
+
+CHUNK = 100
+STAGES = ("teacher", "predictor", "library", "crkr", "single", "gamma1", "responsibility",
+          "final")
+
+
+class ReproduceError(ValueError):
+    """A run folder or setting that cannot be used."""
+
+
+@dataclass(frozen=True)
+class ReproduceConfig:
+    """How many serves each stage uses, and its seed. The defaults are the full run (the paper's
+    sizes where the paper gives them); :func:`quick_config` is the CI-sized run."""
+
+    teacher_serves: int = 2600
+    teacher_seed: int = 1
+    predictor_train_serves: int = 1000  # paper: 1000
+    predictor_train_seed: int = 11
+    predictor_test_serves: int = 3500  # paper: 3500
+    predictor_test_seed: int = 12
+    primitives: int = 300  # paper: 300
+    crkr_samples: int = 2500  # paper: 2500
+    crkr_serves: int = 2700  # per policy iteration (enough successful strokes for the next)
+    crkr_seed: int = 20  # iteration k uses crkr_seed + k
+    crkr_max_iterations: int = 3
+    crkr_min_gain: float = 0.005  # stop when the return rate improves by less
+    single_primitives: int = 10
+    single_serves: int = 100
+    single_seed: int = 30
+    gamma1_serves: int = 1000
+    gamma1_seed: int = 40
+    responsibility_rollouts: int = 3000
+    responsibility_batch: int = 100
+    responsibility_seed: int = 50
+    final_serves: int = 10000  # paper: 10,000
+    final_seed: int = 2026
+    real_serves: int = 1000
+    real_seed: int = 7
+    predictor_restarts: int = 1
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def quick_config() -> ReproduceConfig:
+    """Every stage, on few serves (CI; minutes on two cores)."""
+    return ReproduceConfig(
+        teacher_serves=100, predictor_train_serves=150, predictor_test_serves=200,
+        primitives=60, crkr_samples=80, crkr_serves=80, crkr_max_iterations=2,
+        crkr_min_gain=-1.0, single_primitives=3, single_serves=15, gamma1_serves=40,
+        responsibility_rollouts=120, responsibility_batch=40, final_serves=60, real_serves=30,
+        predictor_restarts=0)
+
+
+# ----------------------------------------------------------------------------- run folder
+class Run:
+    """The run folder: settings, stage folders and their results."""
+
+    def __init__(self, out, config: ReproduceConfig, quick: bool, workers: int,
+                 executor: str = "local", progress: bool = True):
+        self.root = Path(out)
+        self.config, self.quick, self.workers = config, quick, workers
+        self.executor, self.progress = executor, progress
+        self._prepare()
+
+    def _prepare(self) -> None:
+        settings = {"format": "tt-drake-reproduce", "version": 1, "quick": self.quick,
+                    "config": self.config.to_dict()}
+        path = self.root / "config.json"
+        if self.root.exists() and not self.root.is_dir():
+            raise ReproduceError(f"not a folder: {self.root}")
+        if path.exists():
+            try:
+                existing = json.loads(path.read_text())
+            except (OSError, json.JSONDecodeError) as err:
+                raise ReproduceError(f"unreadable {path}: {err}") from None
+            if existing != settings:
+                raise ReproduceError(f"{self.root} holds another run (quick={existing.get('quick')}"
+                                     f"); use another --out")
+            return
+        if self.root.exists() and any(self.root.iterdir()):
+            raise ReproduceError(f"{self.root} is not empty and has no config.json; use another "
+                                 "--out")
+        self.root.mkdir(parents=True, exist_ok=True)
+        write_json_atomic(path, settings)
+
+    def folder(self, stage: str) -> Path:
+        path = self.root / stage
+        path.mkdir(parents=True, exist_ok=True)
+        return path
+
+    def result(self, stage: str) -> dict | None:
+        path = self.root / stage / "result.json"
+        try:
+            return json.loads(path.read_text())
+        except (OSError, json.JSONDecodeError):
+            return None
+
+    def finish(self, stage: str, result: dict, started: float) -> dict:
+        result = {**result, "wall_seconds": round(time.perf_counter() - started, 1)}
+        write_json_atomic(self.folder(stage) / "result.json", result)
+        return result
+
+    def say(self, text: str) -> None:
+        if self.progress:
+            print(text, file=sys.stderr, flush=True)
+
+    def scenario(self, library: str = "", crkr: str = "", predictor: str = "",
+                 configuration: str = "crkr", distribution: str | None = None):
+        from tt_drake.diagrams.scenario import load_scenario
+
+        scenario = load_scenario("default")
+        learned = scenario.learned
+        learned.library, learned.crkr, learned.predictor = library, crkr, predictor
+        learned.configuration = configuration
+        if distribution is not None:
+            scenario.launcher.distribution = distribution
+        return scenario
+
+    # ------------------------------------------------------------------------- rollouts
+    def rollouts(self, folder: Path, scenario, player: str, serves: int, seed: int,
+                 gamma=None, desc: str = "") -> list[dict]:
+        """Episodes ``episode_seed(seed, i)``, i < serves, as dicts (``EpisodeResult.as_dict``),
+        kept in chunk files in ``folder`` so an interrupted stage resumes."""
+        from tt_drake.diagrams.episodes import episode_seed
+        from tt_drake.diagrams.parallel import run_episodes
+
+        folder.mkdir(parents=True, exist_ok=True)
+        n_chunks = -(-serves // CHUNK)
+        chunks: dict[int, list] = {}
+        for c in range(n_chunks):
+            try:
+                chunks[c] = json.loads((folder / f"episodes_{c:05d}.json").read_text())
+            except (OSError, json.JSONDecodeError):
+                pass
+        todo = [i for c in range(n_chunks) if c not in chunks
+                for i in range(c * CHUNK, min(serves, (c + 1) * CHUNK))]
+        bar = tqdm(total=serves, initial=serves - len(todo), desc=desc or player, unit="serve",
+                   file=sys.stderr, disable=not self.progress, leave=False)
+        pending: dict[int, list] = {}
+        seeds = [episode_seed(seed, i) for i in todo]
+        results = run_episodes(scenario, player, seeds, self.workers, gamma=gamma,
+                               executor=self.executor)
+        for i, result in zip(todo, results, strict=True):
+            c = i // CHUNK
+            pending.setdefault(c, []).append(result.as_dict())
+            bar.update()
+            if len(pending[c]) == min(serves, (c + 1) * CHUNK) - c * CHUNK:
+                chunks[c] = pending.pop(c)
+                write_json_atomic(folder / f"episodes_{c:05d}.json", chunks[c])
+        bar.close()
+        return [e for c in range(n_chunks) for e in chunks[c]]
+
+
+def rates(episodes: list[dict]) -> dict:
+    """Hit, legal-return and on-target rates and the mean reward of episode dicts."""
+    n = len(episodes)
+    if n == 0:
+        return {"serves": 0}
+    out = {"serves": n}
+    for key, field in (("hit_rate", "hit"), ("return_rate", "returned"),
+                       ("target_rate", "on_target")):
+        out[key] = sum(bool(e[field]) for e in episodes) / n
+    out["mean_reward"] = sum(e["reward"] for e in episodes) / n
+    strokes = [e["stroke"] for e in episodes if "stroke" in e]
+    if strokes:
+        out["fallback_strokes"] = sum(s["fallback"] for s in strokes)
+    return out
+
+
+# ----------------------------------------------------------------------------- stages
+def stage_teacher(run: Run) -> dict:
+    from tt_drake.diagrams.collect import collect
+
+    c = run.config
+    summary = collect(run.scenario(), "analytical", c.teacher_serves, c.teacher_seed,
+                      str(run.root / "teacher" / "data"), run.workers, progress=run.progress)
+    return {"serves": c.teacher_serves, "seed": c.teacher_seed,
+            "return_rate": summary["return_rate"],
+            "command": f"tt-drake collect --player analytical --serves {c.teacher_serves} "
+                       f"--seed {c.teacher_seed} --out DIR"}
+
+
+def stage_predictor(run: Run) -> dict:
+    from tt_drake.diagrams.predictor import eval_predictor, train_predictor
+
+    c = run.config
+    folder = run.folder("predictor")
+    model = folder / "predictor.npz"
+    train = train_predictor(c.predictor_train_serves, c.predictor_train_seed, str(model),
+                            restarts=c.predictor_restarts, workers=run.workers,
+                            progress=run.progress)
+    metrics = eval_predictor(str(model), c.predictor_test_serves, c.predictor_test_seed,
+                             str(folder / "eval.json"), workers=run.workers,
+                             progress=run.progress, keep_errors=True)
+    errors = metrics.pop("errors")
+    np.save(folder / "errors.npy", errors)
+    return {"model": str(model), "train": {k: train[k] for k in ("serves", "used", "skipped")},
+            "eval": {k: metrics[k] for k in ("serves", "used", "skipped", "gpr", "physical")},
+            "max_nmse": max(r["nmse"] for r in metrics["gpr"] if r["nmse"] is not None),
+            "command": f"tt-drake train-predictor --serves {c.predictor_train_serves} --seed "
+                       f"{c.predictor_train_seed}; tt-drake eval-predictor --serves "
+                       f"{c.predictor_test_serves} --seed {c.predictor_test_seed}"}
+
+
+def stage_library(run: Run) -> dict:
+    from tt_drake.diagrams.train import train_library
+
+    c = run.config
+    out = run.folder("library") / "library.npz"
+    summary = train_library(run.root / "teacher" / "data", out, c.primitives)
+    return {"library": str(out), "primitives": summary["primitives"],
+            "command": f"tt-drake train library --data DIR/teacher/data --primitives "
+                       f"{c.primitives}"}
+
+
+def stage_crkr(run: Run) -> dict:
+    """Policy iteration of the CrKR hitting configuration (section III-B.2)."""
+    from tt_drake.constants import PLANES
+    from tt_drake.diagrams.train import fit_crkr, train_crkr
+
+    c = run.config
+    folder = run.folder("crkr")
+    predictor = run.result("predictor")["model"]
+    iterations = []
+    best = None
+    for k in range(1, c.crkr_max_iterations + 1):
+        model = folder / f"crkr_{k}.npz"
+        if not model.exists():
+            if k == 1:
+                train_crkr(run.root / "teacher" / "data", model, c.crkr_samples)
+            else:
+                pairs = _successful_pairs(iterations[-1]["episodes"], c.crkr_samples)
+                fit_crkr(*pairs, model, {"scenario": run.scenario().name,
+                                         "hitting_y": PLANES.hitting_y,
+                                         "policy_iteration": k, "source": f"crkr_{k - 1}"})
+        episodes = run.rollouts(folder / f"iteration_{k}", run.scenario(crkr=str(model),
+                                predictor=predictor), "crkr", c.crkr_serves, c.crkr_seed + k,
+                                desc=f"CrKR iteration {k}")
+        iterations.append({"iteration": k, "model": str(model), "seed": c.crkr_seed + k,
+                           **rates(episodes), "episodes": episodes})
+        run.say(f"  CrKR iteration {k}: return {iterations[-1]['return_rate']:.1%}, target "
+                f"{iterations[-1]['target_rate']:.1%}")
+        if best is None or iterations[-1]["return_rate"] > best["return_rate"]:
+            gain = (iterations[-1]["return_rate"] - best["return_rate"]) if best else 1.0
+            best = iterations[-1]
+            if gain < c.crkr_min_gain:
+                break
+        else:
+            break
+    for it in iterations:
+        it.pop("episodes")
+    return {"iterations": iterations, "best": best["model"], "best_iteration": best["iteration"],
+            "command": f"tt-drake serve --player crkr --crkr DIR/crkr/crkr_K.npz --predictor "
+                       f"DIR/predictor/predictor.npz --serves {c.crkr_serves} --seed "
+                       f"{c.crkr_seed}+K"}
+
+
+def _successful_pairs(episodes: list[dict], limit: int):
+    """(stimulus, theta_hit, theta_dot_hit) of the legal returns among ``episodes``."""
+    ok = [e["stroke"] for e in episodes if e["returned"] and "stroke" in e][:limit]
+    if len(ok) < 2:
+        raise ReproduceError("policy iteration: fewer than two successful strokes to train on")
+    return (np.array([s["stimulus"] for s in ok]), np.array([s["theta_hit"] for s in ok]),
+            np.array([s["theta_dot_hit"] for s in ok]))
+
+
+def _learned(run: Run, configuration: str = "crkr", distribution: str | None = None):
+    return run.scenario(library=run.result("library")["library"], crkr=run.result("crkr")["best"],
+                        predictor=run.result("predictor")["model"], configuration=configuration,
+                        distribution=distribution)
+
+
+def stage_single(run: Run) -> dict:
+    """Library primitives alone (gamma one-hot): the paper's 23-89 % range."""
+    c = run.config
+    n = run.result("library")["primitives"]
+    chosen = np.sort(np.random.default_rng(c.single_seed).choice(
+        n, size=min(c.single_primitives, n), replace=False))
+    rows = []
+    for i in chosen:
+        gamma = np.zeros(n)
+        gamma[i] = 1.0
+        episodes = run.rollouts(run.folder("single") / f"primitive_{i:03d}", _learned(run),
+                                "momp", c.single_serves, c.single_seed, gamma=gamma,
+                                desc=f"primitive {i} alone")
+        rows.append({"primitive": int(i), **rates(episodes)})
+    returns = [r["return_rate"] for r in rows]
+    return {"primitives": rows, "min_return": min(returns), "max_return": max(returns),
+            "seed": c.single_seed, "serves": c.single_serves}
+
+
+def stage_gamma1(run: Run) -> dict:
+    c = run.config
+    out = {}
+    for configuration in ("crkr", "analytical"):
+        episodes = run.rollouts(run.folder("gamma1") / configuration,
+                                _learned(run, configuration), "momp", c.gamma1_serves,
+                                c.gamma1_seed, desc=f"MoMP gamma=1 ({configuration})")
+        out[configuration] = rates(episodes)
+        run.say(f"  MoMP gamma = 1 ({configuration}): return "
+                f"{out[configuration]['return_rate']:.1%}")
+    return {**out, "seed": c.gamma1_seed, "serves": c.gamma1_serves}
+
+
+def stage_responsibility(run: Run) -> dict:
+    """Algorithm 3 in batches: every rollout of a batch uses the batch's gamma; the updates
+    (Eqs. 10-11) are applied in rollout order with each rollout's own gating weights nu_i and
+    reward. A primitive whose gamma falls below the threshold is pruned (gamma = 0 for good)."""
+    from tt_drake.artefacts import ArtefactError, load_artefact, save_artefact
+    from tt_drake.learned_player import load_player_library
+    from tt_drake.responsibility import responsibility_update
+
+    c = run.config
+    folder = run.folder("responsibility")
+    library, _, _ = load_player_library(run.result("library")["library"])
+    params = library.responsibility
+    n = library.n_primitives
+    state = {"s": np.zeros(n), "n": np.zeros(n), "gamma": np.ones(n), "batches": np.array(0),
+             "curve": np.zeros((0, 4))}
+    try:
+        state, _ = load_artefact(folder / "state.npz", "responsibility-learning")
+    except ArtefactError:
+        pass
+    batches = -(-c.responsibility_rollouts // c.responsibility_batch)
+    usage = np.zeros(n) if "usage" not in state else state["usage"]
+    success = np.zeros(n) if "success" not in state else state["success"]
+    for b in range(int(state["batches"]), batches):
+        start = b * c.responsibility_batch
+        size = min(c.responsibility_batch, c.responsibility_rollouts - start)
+        episodes = run.rollouts(folder / f"batch_{b:04d}", _learned(run), "momp", size,
+                                c.responsibility_seed + b, gamma=state["gamma"],
+                                desc=f"responsibility batch {b + 1}/{batches}")
+        s, cnt, gamma = state["s"], state["n"], state["gamma"]
+        for e in episodes:
+            stroke = e.get("stroke")
+            if not stroke or not stroke["primitives"]:
+                continue  # no primitive carried this stroke (fallback): nothing to credit
+            nu = np.zeros(n)
+            nu[stroke["primitives"]] = stroke["mixture"]
+            usage += nu
+            success += nu * float(e["returned"])
+            s, cnt, g, _ = responsibility_update(s, cnt, nu, e["reward"], params)
+            gamma = np.where(gamma > 0, g, 0.0)
+            gamma[gamma < params.threshold] = 0.0
+        r = rates(episodes)
+        curve = np.vstack([state["curve"], [start + size, r["return_rate"], r["target_rate"],
+                                            float(np.count_nonzero(gamma == 0))]])
+        state = {"s": s, "n": cnt, "gamma": gamma, "batches": np.array(b + 1), "curve": curve,
+                 "usage": usage, "success": success}
+        save_artefact(folder / "state.npz", "responsibility-learning", state,
+                      {"rollouts": int(start + size)})
+        shutil.rmtree(folder / f"batch_{b:04d}")  # its effect is in the state now
+        run.say(f"  responsibility batch {b + 1}/{batches}: return {r['return_rate']:.1%}, "
+                f"pruned {int(curve[-1, 3])} of {n}")
+    gamma = state["gamma"]
+    pruned = gamma == 0
+    earlier = (float(state["success"][pruned].sum() / state["usage"][pruned].sum())
+               if pruned.any() and state["usage"][pruned].sum() > 0 else None)
+    out = run.folder("responsibility") / "library_learned.npz"
+    _save_learned_library(run, gamma, state, out)
+    return {"curve": state["curve"].tolist(), "pruned": int(pruned.sum()), "primitives": n,
+            "pruned_share": float(pruned.mean()), "pruned_earlier_return": earlier,
+            "library": str(out), "rollouts": c.responsibility_rollouts,
+            "threshold": params.threshold,
+            "batch": c.responsibility_batch, "seed": c.responsibility_seed}
+
+
+def _save_learned_library(run: Run, gamma, state, out) -> None:
+    """The library with its learned responsibilities; pruned primitives removed."""
+    from tt_drake.learned_player import load_player_library, save_player_library
+
+    library, stages, meta = load_player_library(run.result("library")["library"])
+    library.gamma, library.s, library.n = gamma.copy(), state["s"].copy(), state["n"].copy()
+    library.remove(np.flatnonzero(gamma == 0))
+    meta = {k: v for k, v in meta.items() if k not in ("learned_format_version", "dmp",
+                                                         "responsibility", "min_weight")}
+    save_player_library(out, library, stages, {**meta, "responsibility_rollouts":
+                                               int(state["curve"][-1, 0])})
+
+
+def stage_final(run: Run) -> dict:
+    c = run.config
+    library = run.result("responsibility")["library"]
+    out = {"library": library}
+    for name, distribution, serves, seed in (("default", "default", c.final_serves, c.final_seed),
+                                             ("real", "real", c.real_serves, c.real_seed)):
+        scenario = _learned(run, distribution=distribution)
+        scenario.learned.library = library
+        episodes = run.rollouts(run.folder("final") / name, scenario, "momp", serves, seed,
+                                desc=f"final player ({name} serves)")
+        landings = [e["landing"] for e in episodes if e["landing"] is not None]
+        np.save(run.folder("final") / f"landings_{name}.npy", np.array(landings).reshape(-1, 2))
+        out[name] = {**rates(episodes), "seed": seed}
+        run.say(f"  final player, {name}: return {out[name]['return_rate']:.1%}")
+    return out
+
+
+STAGE_FUNCTIONS = {"teacher": stage_teacher, "predictor": stage_predictor,
+                   "library": stage_library, "crkr": stage_crkr, "single": stage_single,
+                   "gamma1": stage_gamma1, "responsibility": stage_responsibility,
+                   "final": stage_final}
+
+
+def reproduce(out, quick: bool = False, workers: int | None = None, executor: str = "local",
+              progress: bool = True, config: ReproduceConfig | None = None) -> dict:
+    """Run the missing stages, then write the report; returns the report dict."""
+    from tt_drake.diagrams.parallel import default_workers
+    from tt_drake.diagrams.report import write_report
+
+    config = config or (quick_config() if quick else ReproduceConfig())
+    run = Run(out, config, quick, workers or default_workers(), executor, progress)
+    for k, stage in enumerate(STAGES, 1):
+        if run.result(stage) is not None:
+            run.say(f"[{k}/{len(STAGES)}] {stage}: done before, kept")
+            continue
+        run.say(f"[{k}/{len(STAGES)}] {stage} ...")
+        started = time.perf_counter()
+        result = run.finish(stage, STAGE_FUNCTIONS[stage](run), started)
+        run.say(f"[{k}/{len(STAGES)}] {stage}: {result['wall_seconds']:.0f} s")
+    return write_report(run)
+
+
+__all__ = ["reproduce", "ReproduceConfig", "quick_config", "ReproduceError", "STAGES", "rates"]
