@@ -6,7 +6,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= out
 
-.PHONY: install test test-slow lint demo bench clean
+.PHONY: install test test-slow test-ray lint demo bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -20,10 +20,14 @@ lint: $(STAMP)
 	$(BIN)/ruff check .
 
 test: lint
-	$(BIN)/python -m pytest -m "not slow" -q
+	$(BIN)/python -m pytest -m "not slow and not ray" -q
 
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -m slow -q
+
+test-ray: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e '.[ray,test]'
+	$(BIN)/python -m pytest -m ray -q
 
 demo: $(STAMP)
 	mkdir -p $(OUT)

@@ -247,6 +247,7 @@ COMMANDS = {"reproduce": _reproduce, "serve": _serve, "bench": _bench, "collect"
 def _user_errors() -> tuple[type[BaseException], ...]:
     from tt_drake.diagrams.collect import DatasetError
     from tt_drake.diagrams.episodes import PlayerError
+    from tt_drake.diagrams.parallel import ExecutorError
     from tt_drake.diagrams.predictor import PredictorError
     from tt_drake.diagrams.reproduce import ReproduceError
     from tt_drake.diagrams.scenario import ScenarioError
@@ -259,7 +260,7 @@ def _user_errors() -> tuple[type[BaseException], ...]:
 
     return (CliError, ScenarioError, ServeError, PlayerError, ModelFileError, OutputError,
             PredictorError, PredictorFileError, DatasetError, TrainError, LearnedArtefactError,
-            ReproduceError)
+            ReproduceError, ExecutorError)
 
 
 def main(argv: list[str] | None = None) -> int:

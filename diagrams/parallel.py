@@ -16,6 +16,10 @@ from tt_drake.diagrams.scenario import Scenario
 _WORKER: dict = {}
 
 
+class ExecutorError(ValueError):
+    """An unknown executor, or one whose optional dependency is not installed."""
+
+
 def default_workers() -> int:
     return max(1, len(os.sched_getaffinity(0)))
 
@@ -37,7 +41,7 @@ def run_episodes(scenario: Scenario, player: str, seeds: Iterable[int], workers:
     (forked processes) or another name in :data:`EXECUTORS`."""
     seeds = list(seeds)
     if executor not in EXECUTORS:
-        raise ValueError(f"unknown executor {executor!r}; choose one of {', '.join(EXECUTORS)}")
+        raise ExecutorError(f"unknown executor {executor!r}; choose one of {', '.join(EXECUTORS)}")
     if executor != "local":
         yield from EXECUTORS[executor](scenario, player, seeds, workers, make_diagram, gamma)
         return
@@ -57,6 +61,12 @@ def run_episodes(scenario: Scenario, player: str, seeds: Iterable[int], workers:
         pool.join()
 
 
+def _run_ray(*args) -> Iterator[EpisodeResult]:
+    from tt_drake.diagrams.ray_executor import run_ray  # imports Ray only when it is asked for
+
+    return run_ray(*args)
+
+
 # Executors other than ``local``: name -> function(scenario, player, seeds, workers, make_diagram,
 # gamma) yielding EpisodeResults in seed order.
-EXECUTORS: dict[str, Callable] = {"local": None}
+EXECUTORS: dict[str, Callable] = {"local": None, "ray": _run_ray}
