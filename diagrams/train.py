@@ -15,7 +15,9 @@ rule (:func:`tt_drake.momp.scott_bandwidths`); 1 for p_hit's y, constant on the 
 per other stage (section III-A), each imitated from one representative demonstration: among the
 successful serves, the one whose stage duration is the median (preparation: the swing-back, from
 rest to rest; follow-through: from (theta_hit, theta_dot_hit) to rest; awaiting: the return to the
-awaiting posture after the follow-through).
+awaiting posture after the follow-through). In every primitive, the joints that barely moved in the
+demonstration take the normalised shape of the joint that moved most
+(:func:`tt_drake.imitation.borrow_weak_shapes`: DMP amplitude scaling is ill-conditioned there).
 
 crkr (paper section II-C.2): the map from the stimulus s = (p_hit, v_hit) to the hitting
 configuration (theta_hit, theta_dot_hit), 14 outputs sharing one kernel (one model per output, as
@@ -41,7 +43,7 @@ from tt_drake.constants import PLANES
 from tt_drake.crkr import comfort_cost
 from tt_drake.diagrams.collect import DatasetError, load_dataset
 from tt_drake.dmp import HittingDMP
-from tt_drake.imitation import Demonstration
+from tt_drake.imitation import Demonstration, borrow_weak_shapes
 from tt_drake.learned_player import (
     ConfigurationModel,
     StagePrimitive,
@@ -146,8 +148,14 @@ def train_library(data_dir, out, primitives: int = 300, dmp: HittingDMP | None =
     x = np.array(strokes["stimuli"])
     h = np.where(_spread(x) > 0, scott_bandwidths(x), 1.0)
     library = MotorPrimitiveLibrary.from_demonstrations(dmp, strokes["hitting"], x, h)
-    stages = {stage: StagePrimitive.imitate(dmp, _representative(strokes[stage], stage))
-              for stage in (PREPARATION, FOLLOW_THROUGH, AWAITING)}
+    for p in range(library.n_primitives):
+        library.weights[p], library.amplitude[p] = borrow_weak_shapes(library.weights[p],
+                                                                      library.amplitude[p])
+    stages = {}
+    for stage in (PREPARATION, FOLLOW_THROUGH, AWAITING):
+        prim = StagePrimitive.imitate(dmp, _representative(strokes[stage], stage))
+        stages[stage] = StagePrimitive(*borrow_weak_shapes(prim.weights, prim.amplitude),
+                                       prim.tau)
     meta = _meta(data, data_dir, library.n_primitives)
     save_player_library(out, library, stages, meta)
     return {"artefact": "library", "out": str(out), "primitives": library.n_primitives,

@@ -151,3 +151,30 @@ def test_bad_demonstrations_raise():
         Demonstration(t, np.full(10, np.nan), np.zeros(10), np.zeros(10))
     with pytest.raises(ValueError):
         fit_weights(DMP, np.ones(3), np.ones(3), method="magic")
+
+
+def test_borrowed_shape_keeps_a_weak_joint_near_its_quintic_acceleration():
+    """A rest-to-rest quintic in which joint 1 barely moves (A = 0.06 rad, above amp_eps): sent
+    0.8 rad the other way in the same time, the learned primitive replays joint 1 with eta
+    clipped at -5 and an acceleration far above the quintic's 5.77 D / T^2; with the dominant
+    joint's shape borrowed it is the quintic's peak (within 10 %), and the demonstration's own
+    goal is still reached."""
+    from tt_drake.imitation import borrow_weak_shapes, quintic_demonstration
+
+    tau = 0.4
+    demo = quintic_demonstration(tau, [0.0, 0.0], [1.0, 0.06], [0.0, 0.0])
+    res = imitate(DMP, demo)
+    goal = np.array([1.0, -0.8])
+    quintic_peak = 5.7735 * 0.8 / tau**2
+    raw = DMP.rollout(res.weights, np.zeros(2), goal, np.zeros(2), tau, amplitude=res.amplitude)
+    w, a = borrow_weak_shapes(res.weights, res.amplitude)
+    new = DMP.rollout(w, np.zeros(2), goal, np.zeros(2), tau, amplitude=a)
+    assert np.abs(raw.qdd[:, 1]).max() > 2.0 * quintic_peak
+    assert np.abs(new.qdd[:, 1]).max() == pytest.approx(quintic_peak, rel=0.1)
+    assert np.abs(new.q[-1] - goal).max() < 0.01
+    # The dominant joint is untouched, and a joint above the ratio keeps its own shape.
+    np.testing.assert_array_equal(w[0], res.weights[0])
+    w2, a2 = borrow_weak_shapes(res.weights, np.array([1.0, 0.6]))
+    np.testing.assert_array_equal(w2, res.weights)
+    with pytest.raises(ValueError):
+        borrow_weak_shapes(res.weights, np.ones(3))
