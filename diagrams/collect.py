@@ -88,8 +88,10 @@ def _pack(indices: list[int], seeds: list[int], results: list) -> dict:
 
 
 def collect(scenario: Scenario, player: str, serves: int, seed: int, out: str,
-            workers: int = 1, progress: bool = True, chunk_size: int = CHUNK_SIZE) -> dict:
-    """Simulate the missing chunks of the dataset; returns a summary."""
+            workers: int = 1, progress: bool = True, chunk_size: int = CHUNK_SIZE,
+            executor: str = "local") -> dict:
+    """Simulate the missing chunks of the dataset (on ``executor``, see
+    :func:`tt_drake.diagrams.parallel.run_episodes`); returns a summary."""
     folder = Path(out)
     prepare_folder(folder, _manifest(scenario, player, serves, seed, chunk_size))
     n_chunks = -(-serves // chunk_size)
@@ -105,7 +107,8 @@ def collect(scenario: Scenario, player: str, serves: int, seed: int, out: str,
     make = functools.partial(ServeDiagram, record=True)
     seeds = [episode_seed(seed, i) for i in todo]
     pending: dict[int, list] = {}
-    for i, s, result in zip(todo, seeds, run_episodes(scenario, player, seeds, workers, make),
+    for i, s, result in zip(todo, seeds, run_episodes(scenario, player, seeds, workers, make,
+                                                               executor=executor),
                             strict=True):
         chunk = i // chunk_size
         pending.setdefault(chunk, []).append((i, s, result))

@@ -70,3 +70,15 @@ def _run_ray(*args) -> Iterator[EpisodeResult]:
 # Executors other than ``local``: name -> function(scenario, player, seeds, workers, make_diagram,
 # gamma) yielding EpisodeResults in seed order.
 EXECUTORS: dict[str, Callable] = {"local": None, "ray": _run_ray}
+
+
+def executor_session(executor: str, workers: int):
+    """A context in which many :func:`run_episodes` calls share the executor's set-up (Ray is
+    started once); nothing to do for ``local``."""
+    import contextlib
+
+    if executor == "ray":
+        from tt_drake.diagrams.ray_executor import ray_session
+
+        return ray_session(workers)
+    return contextlib.nullcontext()

@@ -10,6 +10,7 @@ else starts a local one with ``workers`` CPUs; it shuts down (or disconnects fro
 it initialised itself. The cluster's nodes need ``tt-drake`` installed.
 """
 
+import contextlib
 import os
 from collections import deque
 from collections.abc import Callable, Iterator
@@ -56,20 +57,37 @@ def _get(ray, ref) -> EpisodeResult:
         raise err.cause from err
 
 
-def run_ray(scenario: Scenario, player: str, seeds: list[int], workers: int,
-            make_diagram: Callable, gamma) -> Iterator[EpisodeResult]:
-    """Yield the episodes of ``seeds`` in order, run on ``min(workers, len(seeds))`` actors."""
+@contextlib.contextmanager
+def ray_session(workers: int):
+    """Ray for the duration of the block: the running one, else the cluster at RAY_ADDRESS, else a
+    local one with ``workers`` CPUs; shut down on exit only if this block started it. Wrap many
+    :func:`run_ray` calls in one session to start Ray once (``tt-drake reproduce`` does)."""
     ray = _import_ray()
-    seeds = list(seeds)
-    if not seeds:
-        return
-    workers = max(1, workers)
     owned = not ray.is_initialized()
     if owned:
         if os.environ.get("RAY_ADDRESS"):
             ray.init(address=os.environ["RAY_ADDRESS"])
         else:
-            ray.init(num_cpus=workers, include_dashboard=False)
+            ray.init(num_cpus=max(1, workers), include_dashboard=False)
+    try:
+        yield ray
+    finally:
+        if owned:
+            ray.shutdown()
+
+
+def run_ray(scenario: Scenario, player: str, seeds: list[int], workers: int,
+            make_diagram: Callable, gamma) -> Iterator[EpisodeResult]:
+    """Yield the episodes of ``seeds`` in order, run on ``min(workers, len(seeds))`` actors."""
+    seeds = list(seeds)
+    if not seeds:
+        return
+    workers = max(1, workers)
+    with ray_session(workers) as ray:
+        yield from _run_actors(ray, scenario, player, seeds, workers, make_diagram, gamma)
+
+
+def _run_actors(ray, scenario, player, seeds, workers, make_diagram, gamma):
     actors = []
     try:
         actor_class = ray.remote(num_cpus=1)(_Worker)
@@ -89,5 +107,3 @@ def run_ray(scenario: Scenario, player: str, seeds: list[int], workers: int,
     finally:
         for actor in actors:
             ray.kill(actor)
-        if owned:
-            ray.shutdown()

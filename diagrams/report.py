@@ -21,8 +21,9 @@ PAPER = {
     "crkr_1": ("CrKR, policy iteration 1: legal return / on target", "94 % / 48 %", 0.94),
     "crkr_2": ("CrKR, policy iteration 2: legal return / on target", "95 % / 63 %", 0.95),
     "single": ("Single primitives alone: legal-return range", "23 % - 89 %", None),
-    "gamma1": ("MoMP, gamma = 1 (CrKR): legal return", "67 %", 0.67),
-    "gamma1_ik": ("MoMP, gamma = 1, analytical IK instead of CrKR: legal return", "-", None),
+    "gamma1": ("MoMP, gamma = 1 (CrKR): legal return / on target", "67 %", 0.67),
+    "gamma1_ik": ("MoMP, gamma = 1, analytical IK instead of CrKR: legal return / on target",
+                  "-", None),
     "pruned": ("Responsibility learning: primitives pruned (their earlier success)",
                "about 27 % (30 %)", None),
     "final": ("Learned MoMP player (responsibilities learned): legal return / on target",
@@ -34,6 +35,16 @@ PAPER = {
 
 def _pct(x) -> str:
     return "-" if x is None else f"{100.0 * x:.1f} %"
+
+
+def _momp(r: dict) -> str:
+    """A MoMP player's figure: legal returns carried by the primitives / on target, with the
+    strokes the teacher's quintics carried (the primitives' plan left the joint limits)."""
+    text = f"{_pct(r['momp_return_rate'])} / {_pct(r['target_rate'])}"
+    if r.get("fallback_strokes"):
+        text += (f" ({r['fallback_strokes']} fallback strokes; {_pct(r['return_rate'])} "
+                 "counting them)")
+    return text
 
 
 def _row(key: str, ours: str, value, serves, command: str) -> dict:
@@ -74,8 +85,7 @@ def table_rows(results: dict) -> list[dict]:
     g1 = results.get("gamma1")
     if g1:
         for key, conf in (("gamma1", "crkr"), ("gamma1_ik", "analytical")):
-            rows.append(_row(key, f"{_pct(g1[conf]['return_rate'])} (on target "
-                                  f"{_pct(g1[conf]['target_rate'])})", g1[conf]["return_rate"],
+            rows.append(_row(key, _momp(g1[conf]), g1[conf]["momp_return_rate"],
                              g1["serves"], f"--player momp --configuration {conf} --seed "
                                            f"{g1['seed']}"))
     resp = results.get("responsibility")
@@ -90,8 +100,7 @@ def table_rows(results: dict) -> list[dict]:
         for key in ("default", "real"):
             r = final[key]
             rows.append(_row("final" if key == "default" else "real",
-                             f"{_pct(r['return_rate'])} / {_pct(r['target_rate'])}",
-                             r["return_rate"], r["serves"],
+                             _momp(r), r["momp_return_rate"], r["serves"],
                              f"--player momp --library DIR/responsibility/library_learned.npz "
                              f"--distribution {key} --seed {r['seed']}"))
     return rows

@@ -210,7 +210,18 @@ def rates(episodes: list[dict]) -> dict:
     strokes = [e["stroke"] for e in episodes if "stroke" in e]
     if strokes:
         out["fallback_strokes"] = sum(s["fallback"] for s in strokes)
+        # A stroke the teacher's quintics carried (the primitives' plan left the joint limits)
+        # is no success of the motor primitives.
+        out["momp_return_rate"] = sum(bool(e["returned"]) and not e.get("stroke", {}).get(
+            "fallback", False) for e in episodes) / n
     return out
+
+
+def credited_reward(episode: dict) -> float:
+    """The reward the responsibility learning credits: the referee's, and 0 for a stroke whose
+    primitives' plan left the joint limits (the mixture failed, whatever the fallback did)."""
+    stroke = episode.get("stroke") or {}
+    return 0.0 if stroke.get("fallback") else float(episode["reward"])
 
 
 # ----------------------------------------------------------------------------- stages
@@ -219,7 +230,8 @@ def stage_teacher(run: Run) -> dict:
 
     c = run.config
     summary = collect(run.scenario(), "analytical", c.teacher_serves, c.teacher_seed,
-                      str(run.root / "teacher" / "data"), run.workers, progress=run.progress)
+                      str(run.root / "teacher" / "data"), run.workers, progress=run.progress,
+                      executor=run.executor)
     return {"serves": c.teacher_serves, "seed": c.teacher_seed,
             "return_rate": summary["return_rate"],
             "command": f"tt-drake collect --player analytical --serves {c.teacher_serves} "
@@ -330,7 +342,7 @@ def stage_single(run: Run) -> dict:
                                 "momp", c.single_serves, c.single_seed, gamma=gamma,
                                 desc=f"primitive {i} alone")
         rows.append({"primitive": int(i), **rates(episodes)})
-    returns = [r["return_rate"] for r in rows]
+    returns = [r["momp_return_rate"] for r in rows]
     return {"primitives": rows, "min_return": min(returns), "max_return": max(returns),
             "seed": c.single_seed, "serves": c.single_serves}
 
@@ -380,22 +392,22 @@ def stage_responsibility(run: Run) -> dict:
         for e in episodes:
             stroke = e.get("stroke")
             if not stroke or not stroke["primitives"]:
-                continue  # no primitive carried this stroke (fallback): nothing to credit
+                continue  # no stroke was planned: nothing to credit
             nu = np.zeros(n)
             nu[stroke["primitives"]] = stroke["mixture"]
             usage += nu
-            success += nu * float(e["returned"])
-            s, cnt, g, _ = responsibility_update(s, cnt, nu, e["reward"], params)
+            success += nu * float(e["returned"] and not stroke["fallback"])
+            s, cnt, g, _ = responsibility_update(s, cnt, nu, credited_reward(e), params)
             gamma = np.where(gamma > 0, g, 0.0)
             gamma[gamma < params.threshold] = 0.0
         r = rates(episodes)
-        curve = np.vstack([state["curve"], [start + size, r["return_rate"], r["target_rate"],
+        curve = np.vstack([state["curve"], [start + size, r["momp_return_rate"], r["target_rate"],
                                             float(np.count_nonzero(gamma == 0))]])
         state = {"s": s, "n": cnt, "gamma": gamma, "batches": np.array(b + 1), "curve": curve,
                  "usage": usage, "success": success}
         save_artefact(folder / "state.npz", "responsibility-learning", state,
                       {"rollouts": int(start + size)})
-        shutil.rmtree(folder / f"batch_{b:04d}")  # its effect is in the state now
+        shutil.rmtree(folder / f"batch_{b:04d}", ignore_errors=True)  # now in the state
         run.say(f"  responsibility batch {b + 1}/{batches}: return {r['return_rate']:.1%}, "
                 f"pruned {int(curve[-1, 3])} of {n}")
     gamma = state["gamma"]
@@ -450,19 +462,23 @@ STAGE_FUNCTIONS = {"teacher": stage_teacher, "predictor": stage_predictor,
 def reproduce(out, quick: bool = False, workers: int | None = None, executor: str = "local",
               progress: bool = True, config: ReproduceConfig | None = None) -> dict:
     """Run the missing stages, then write the report; returns the report dict."""
-    from tt_drake.diagrams.parallel import default_workers
+    from tt_drake.diagrams.parallel import EXECUTORS, default_workers, executor_session
     from tt_drake.diagrams.report import write_report
 
+    if executor not in EXECUTORS:
+        raise ReproduceError(f"unknown executor {executor!r}; choose one of "
+                             f"{', '.join(EXECUTORS)}")
     config = config or (quick_config() if quick else ReproduceConfig())
     run = Run(out, config, quick, workers or default_workers(), executor, progress)
-    for k, stage in enumerate(STAGES, 1):
-        if run.result(stage) is not None:
-            run.say(f"[{k}/{len(STAGES)}] {stage}: done before, kept")
-            continue
-        run.say(f"[{k}/{len(STAGES)}] {stage} ...")
-        started = time.perf_counter()
-        result = run.finish(stage, STAGE_FUNCTIONS[stage](run), started)
-        run.say(f"[{k}/{len(STAGES)}] {stage}: {result['wall_seconds']:.0f} s")
+    with executor_session(executor, run.workers):
+        for k, stage in enumerate(STAGES, 1):
+            if run.result(stage) is not None:
+                run.say(f"[{k}/{len(STAGES)}] {stage}: done before, kept")
+                continue
+            run.say(f"[{k}/{len(STAGES)}] {stage} ...")
+            started = time.perf_counter()
+            result = run.finish(stage, STAGE_FUNCTIONS[stage](run), started)
+            run.say(f"[{k}/{len(STAGES)}] {stage}: {result['wall_seconds']:.0f} s")
     return write_report(run)
 
 

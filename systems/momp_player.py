@@ -153,7 +153,8 @@ class MoMPTrajectorySource(StagePlanPlayer):
                 return  # keep the feasible plan made before
             new = plan_stroke(now, plan.evaluate(now), t_hit, q_hit, qd_hit, self.q_await,
                               self.limits, self.config.times, preparing, allow_wait=False)
-            idx, nu = np.zeros(0, dtype=int), np.zeros(0)
+            if not fallback:
+                idx, nu = np.zeros(0, dtype=int), np.zeros(0)
         replans = 1 if old.stroke is None else old.stroke.replans + 1
         stroke = MoMPStroke(x, t_hit, np.array(q_hit), np.array(qd_hit), idx, nu, replans,
                             fallback)
@@ -162,10 +163,12 @@ class MoMPTrajectorySource(StagePlanPlayer):
 
     def _plan_primitives(self, now, plan, x, t_hit, q_hit, qd_hit, preparing):
         """The first motor-primitive plan inside the joint limits (hitting-stage durations tried
-        in turn), as (plan, primitive indices, mixture weights); (None, None, None) if there is
-        none or the player has no library (the ``crkr`` player: teacher's quintics)."""
+        in turn) as (plan, primitive indices, mixture weights); if none is, (None, indices,
+        weights) of the mixture that failed (the responsibility learning blames it), and (None,
+        None, None) for a player without a library (the ``crkr`` player: teacher's quintics)."""
         if self.library is None:
             return None, None, None
+        tried = None
         for hitting in (*self.config.hitting_durations, None):
             try:
                 new, idx, nu = plan_momp_stroke(
@@ -176,7 +179,9 @@ class MoMPTrajectorySource(StagePlanPlayer):
                 continue
             if within_limits(new, self.limits):
                 return new, idx, nu
-        return None, None, None
+            tried = tried or (idx, nu)
+        idx, nu = tried or self.library.active(x)
+        return None, idx, nu
 
     @staticmethod
     def hit_point(stroke):

@@ -195,7 +195,9 @@ class MoMPStroke:
     primitives: np.ndarray  # indices into the library
     mixture: np.ndarray  # their normalised gating weights nu_i
     replans: int = 1
-    fallback: bool = False  # the MoMP plan left the joint limits: teacher's quintic stages used
+    # The MoMP plan left the joint limits and the teacher's quintic stages were used instead;
+    # ``primitives`` and ``mixture`` are then those of the mixture that failed.
+    fallback: bool = False
 
 
 def plan_momp_stroke(now: float, state, stimulus, t_hit: float, q_hit, qd_hit,
@@ -349,8 +351,10 @@ def save_configuration_model(path, model: ConfigurationModel, meta: dict) -> Non
     """The CrKR map stimulus -> (theta_hit, theta_dot_hit) with ``meta`` (scenario, hitting-plane
     y, comfort posture, inputs) and a format version."""
     y_mean, model = model.y_mean, model.crkr
+    # The training pairs only (O(n) numbers): the O(n^2) Cholesky factor is recomputed on load
+    # (about a second for 2,500 pairs), which keeps the shipped model small.
     arrays = {"x": model.x, "y": model.y, "costs": model.costs, "bandwidths": model.bandwidths,
-              "chol": model._chol, "alpha": model._alpha, "y_mean": y_mean}
+              "y_mean": y_mean}
     doc = {**meta, "learned_format_version": LEARNED_FORMAT_VERSION, "lam": model.lam,
            "n_samples": model.n_samples}
     save_artefact(path, CRKR_FILE_KIND, arrays, doc)
@@ -368,11 +372,9 @@ def load_configuration_model(path, scenario: str | None = None, hitting_y: float
     try:
         model = CrKR(arrays["bandwidths"], float(meta["lam"]))
         x, y, c = model._check(arrays["x"], arrays["y"], arrays["costs"])
-        if (y.shape[1] != 14 or arrays["chol"].shape != (len(x), len(x))
-                or arrays["y_mean"].shape != (14,)):
-            raise ValueError("expected 14 outputs (theta_hit, theta_dot_hit) and a square factor")
-    except (KeyError, TypeError, ValueError) as exc:
+        if y.shape[1] != 14 or arrays["y_mean"].shape != (14,):
+            raise ValueError("expected 14 outputs (theta_hit, theta_dot_hit)")
+        model.fit(x, y, c)
+    except (KeyError, TypeError, ValueError, np.linalg.LinAlgError) as exc:
         raise LearnedArtefactError(f"{path}: inconsistent CrKR model ({exc})") from None
-    model.x, model.y, model.costs = x, y, c
-    model._chol, model._alpha = arrays["chol"], arrays["alpha"]
     return ConfigurationModel(model, arrays["y_mean"]), meta

@@ -1,0 +1,116 @@
+"""tt-drake reproduce: the run folder's guards, the figures it reports, and responsibility
+learning (Algorithm 3) over batches of rollouts, resumed after an interruption. The rollouts are
+synthetic here (no simulation); the CI runs the whole pipeline with ``make reproduce-quick``."""
+
+import json
+
+import numpy as np
+import pytest
+
+from tt_drake.diagrams import reproduce as rp
+from tt_drake.diagrams.cli import main
+from tt_drake.dmp import HittingDMP
+from tt_drake.learned_player import StagePrimitive, load_player_library, save_player_library
+from tt_drake.momp import MotorPrimitiveLibrary
+from tt_drake.stages import AWAITING, FOLLOW_THROUGH, PREPARATION
+
+SMALL = rp.ReproduceConfig(responsibility_rollouts=60, responsibility_batch=20)
+
+
+def _episode(returned: bool, reward: float, primitives=(), mixture=(), fallback=False) -> dict:
+    return {"hit": returned, "returned": returned, "on_target": returned, "reward": reward,
+            "landing": None, "stroke": {"primitives": list(primitives), "mixture": list(mixture),
+                                        "fallback": fallback, "stimulus": [0.0] * 6}}
+
+
+def test_rates_do_not_credit_the_primitives_with_a_fallback_stroke():
+    episodes = [_episode(True, 1.0, [0], [1.0]), _episode(True, 0.9, [1], [1.0], fallback=True),
+                _episode(False, 0.0, [0], [1.0]), _episode(False, 0.2, [1], [1.0])]
+    r = rp.rates(episodes)
+    assert r["return_rate"] == 0.5 and r["momp_return_rate"] == 0.25
+    assert r["hit_rate"] == 0.5 and r["fallback_strokes"] == 1
+    assert r["mean_reward"] == pytest.approx(2.1 / 4)
+    assert [rp.credited_reward(e) for e in episodes] == [1.0, 0.0, 0.0, 0.2]
+
+
+def test_a_folder_of_another_run_is_refused(tmp_path):
+    rp.Run(tmp_path / "a", SMALL, quick=False, workers=1, progress=False)
+    rp.Run(tmp_path / "a", SMALL, quick=False, workers=1, progress=False)  # resumes
+    with pytest.raises(rp.ReproduceError, match="another run"):
+        rp.Run(tmp_path / "a", rp.quick_config(), quick=True, workers=1, progress=False)
+    (tmp_path / "b").mkdir()
+    (tmp_path / "b" / "notes.txt").write_text("mine")
+    with pytest.raises(rp.ReproduceError, match="not empty"):
+        rp.Run(tmp_path / "b", SMALL, quick=False, workers=1, progress=False)
+    assert (tmp_path / "b" / "notes.txt").read_text() == "mine"
+
+
+def test_cli_bad_executor_is_one_line(tmp_path, capsys):
+    assert main(["reproduce", "--out", str(tmp_path / "r"), "--executor", "spark"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "unknown executor" in err[0]
+
+
+def _library(path, n: int = 3) -> None:
+    dmp = HittingDMP(n_basis=5)
+    stimuli = np.eye(n, 6)
+    library = MotorPrimitiveLibrary(dmp, np.zeros((n, 7, 5)), np.ones((n, 7)), stimuli,
+                                    np.ones(6))
+    stage = StagePrimitive(np.zeros((7, 5)), np.ones(7), 0.3)
+    save_player_library(path, library, {PREPARATION: stage, FOLLOW_THROUGH: stage,
+                                        AWAITING: stage},
+                        {"scenario": "default", "hitting_y": -1.82})
+
+
+class _Rollouts:
+    """Primitive 0 always fails (reward 0), 1 always succeeds (reward 1), 2 succeeds one time in
+    four: each rollout is carried by one primitive, chosen in turn among the unpruned ones."""
+
+    def __init__(self, fail_at_batch: int | None = None):
+        self.fail_at_batch, self.batches, self.gammas = fail_at_batch, 0, []
+
+    def __call__(self, folder, scenario, player, serves, seed, gamma=None, desc=""):
+        if self.fail_at_batch is not None and self.batches == self.fail_at_batch:
+            raise KeyboardInterrupt
+        self.batches += 1
+        self.gammas.append(np.array(gamma))
+        alive = np.flatnonzero(np.asarray(gamma) > 0)
+        out = []
+        for k in range(serves):
+            i = int(alive[(seed + k) % len(alive)])
+            ok = i == 1 or (i == 2 and k % 4 == 0)
+            out.append(_episode(ok, float(ok), [i], [1.0]))
+        return out
+
+
+def _learn(root, rollouts, monkeypatch):
+    run = rp.Run(root, SMALL, quick=False, workers=1, progress=False)
+    lib = run.folder("library") / "library.npz"
+    if not lib.exists():
+        _library(lib)
+        (run.folder("library") / "result.json").write_text(json.dumps({"library": str(lib)}))
+    monkeypatch.setattr(run, "rollouts", rollouts)
+    monkeypatch.setattr(rp, "_learned", lambda run, *args, **kwargs: None)
+    return rp.stage_responsibility(run)
+
+
+def test_responsibility_learning_prunes_the_failing_primitives_and_resumes(tmp_path, monkeypatch):
+    straight = _Rollouts()
+    whole = _learn(tmp_path / "whole", straight, monkeypatch)
+    # Eq. 10's asymptote: a primitive is pruned iff its mean reward < 1 + zeta ln(thr) / kappa.
+    assert whole["pruned"] == 2 and whole["primitives"] == 3
+    assert 0.0 < whole["pruned_earlier_return"] < 0.25
+    library, _, _ = load_player_library(whole["library"])
+    assert library.n_primitives == 1 and library.stimuli[0, 1] == 1.0  # primitive 1 is kept
+    curve = np.array(whole["curve"])
+    assert curve[:, 0].tolist() == [20, 40, 60] and curve[-1, 1] > curve[0, 1]
+
+    interrupted = _Rollouts(fail_at_batch=2)
+    with pytest.raises(KeyboardInterrupt):
+        _learn(tmp_path / "resumed", interrupted, monkeypatch)
+    rest = _Rollouts()
+    resumed = _learn(tmp_path / "resumed", rest, monkeypatch)
+    assert rest.batches == 1  # only the missing batch ran again
+    np.testing.assert_array_equal(rest.gammas[0], straight.gammas[2])
+    for key in ("pruned", "pruned_share", "curve"):
+        assert resumed[key] == whole[key]
