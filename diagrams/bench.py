@@ -72,11 +72,7 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
     launch = [sampler.sample(s) for s in seeds]
     sampling = (time.perf_counter() - t0) / serves
 
-    project = ServeDiagram(scenario, player)
-    project.run(seeds[0])  # warm caches (first Python calls, scalar conversions)
-    t0 = time.perf_counter()
-    durations = [project.run(s).duration for s in seeds]
-    project_wall = (time.perf_counter() - t0) / serves
+    project_wall, durations = _time_episodes(ServeDiagram(scenario, player), seeds)
     reference = ReferenceDiagram(scenario, max(durations))
     reference.run(launch[0].launch_state, durations[0])
     t0 = time.perf_counter()
@@ -93,6 +89,16 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
         "serve_sampling_per_serve": sampling,
         "ratio_project_to_reference": project_wall / reference_wall,
     }
+    if player != "idle":
+        # The same serves at the idle diagram: what the player's systems cost. A returned ball
+        # flies on to the far floor, so per serve the player's episodes also simulate longer.
+        idle_wall, idle_durations = _time_episodes(ServeDiagram(scenario, "idle"), seeds)
+        idle_sim = float(np.mean(idle_durations))
+        result["idle"] = {"wall_per_serve": idle_wall, "mean_episode_sim_time": idle_sim,
+                          "real_time_factor": idle_sim / idle_wall}
+        result["ratio_to_idle_per_serve"] = project_wall / idle_wall
+        result["ratio_to_idle_per_simulated_second"] = (
+            (project_wall / mean_duration) / (idle_wall / idle_sim))
     try:
         from tt_drake.benchmarks import bench_momp_planning
     except ImportError:
@@ -100,6 +106,14 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
     else:
         result["momp_planning"] = bench_momp_planning()
     return result
+
+
+def _time_episodes(diagram: ServeDiagram, seeds: list[int]) -> tuple[float, list[float]]:
+    """Wall time per episode over ``seeds`` (after one warm-up episode) and their durations."""
+    diagram.run(seeds[0])  # warm caches (first Python calls, scalar conversions)
+    t0 = time.perf_counter()
+    durations = [diagram.run(s).duration for s in seeds]
+    return (time.perf_counter() - t0) / len(seeds), durations
 
 
 def format_bench(r: dict) -> str:
@@ -114,6 +128,12 @@ def format_bench(r: dict) -> str:
         f"  serve sampling (included in project): "
         f"{1e3 * r['serve_sampling_per_serve']:.1f} ms/serve",
     ]
+    if "idle" in r:
+        lines.append(f"  idle diagram       {1e3 * r['idle']['wall_per_serve']:8.1f} ms/serve   "
+                     f"{r['idle']['real_time_factor']:5.1f}x real time (mean simulated "
+                     f"{r['idle']['mean_episode_sim_time']:.2f} s)")
+        lines.append(f"  ratio {r['player']}/idle: {r['ratio_to_idle_per_serve']:.2f} per serve, "
+                     f"{r['ratio_to_idle_per_simulated_second']:.2f} per simulated second")
     if "momp_planning" in r:
         lines.append(f"  MoMP planning: {r['momp_planning']}")
     return "\n".join(lines)

@@ -78,3 +78,26 @@ def mark_target(meshcat, x: float, y: float, radius: float) -> None:
 
     meshcat.SetObject("/target", Cylinder(radius, 0.002), Rgba(1.0, 1.0, 0.0, 0.35))
     meshcat.SetTransform("/target", RigidTransform([x, y, 0.761]))
+
+
+PRIMITIVE_COLOUR = (0.55, 0.25, 0.95, 0.9)
+FALLBACK_COLOUR = (0.5, 0.5, 0.5, 0.6)
+
+
+def draw_stroke(meshcat, index: int, stroke: dict | None, library) -> None:
+    """Which hitting primitives carried the learned player's stroke: each one's demonstrated
+    hitting point x_i (its stimulus' position, on the hitting plane) as a sphere whose volume is
+    its mixture weight nu_i (Eq. 6), the five heaviest; grey if the primitives' plan left the
+    joint limits and the teacher's quintics moved the arm instead."""
+    from pydrake.geometry import Rgba, Sphere
+    from pydrake.math import RigidTransform
+
+    if not stroke or library is None or not stroke["primitives"]:
+        return
+    colour = FALLBACK_COLOUR if stroke["fallback"] else PRIMITIVE_COLOUR
+    order = np.argsort(stroke["mixture"])[::-1][:5]
+    for rank, k in enumerate(order):
+        i, nu = stroke["primitives"][k], stroke["mixture"][k]
+        name = f"/episodes/{index:04d}/primitives/{rank}_primitive_{i}"
+        meshcat.SetObject(name, Sphere(0.04 * float(nu) ** (1.0 / 3.0)), Rgba(*colour))
+        meshcat.SetTransform(name, RigidTransform(library.stimuli[i, :3]))

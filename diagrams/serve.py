@@ -38,9 +38,10 @@ def run_serves(scenario: Scenario, player: str, serves: int, seed: int, html: st
         result = diagram.run(episode_seed(seed, i), start_time=clock)
         results.append(result)
         if meshcat is not None:
-            from tt_drake.diagrams.recording import draw_beliefs, draw_episode
+            from tt_drake.diagrams.recording import draw_beliefs, draw_episode, draw_stroke
 
             draw_episode(meshcat, i, result)
+            draw_stroke(meshcat, i, result.stroke, diagram.library)
             draw_beliefs(meshcat, diagram.visualizer.get_mutable_recording(), i,
                          diagram.beliefs)
             clock += result.duration
