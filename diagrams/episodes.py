@@ -215,10 +215,16 @@ class ServeDiagram:
     """The serve diagram of one scenario and player, built once and reused for every episode."""
 
     def __init__(self, scenario: Scenario, player: str = "idle", meshcat=None,
-                 log_ball: bool = False, record: bool = False):
+                 log_ball: bool = False, record: bool = False,
+                 end_when_decided: bool | None = None):
         if player not in PLAYERS:
             raise PlayerError(f"unknown player {player!r}; choose one of {', '.join(PLAYERS)}")
         self.scenario = scenario
+        # The referee ends an episode once the return's outcome is decided, except when the
+        # whole stroke is wanted: demonstrations (the return to the awaiting posture is one) and
+        # recordings.
+        self.end_when_decided = (not (record or log_ball or meshcat is not None)
+                                 if end_when_decided is None else end_when_decided)
         builder = DiagramBuilder()
         world = add_world(builder, scenario.world)
         self.world = world
@@ -303,7 +309,8 @@ class ServeDiagram:
                          if inspector.GetName(g).endswith("table_top")]
             kwargs = dict(racket_body_index=frame.body().index(), racket_offset=offset,
                           robot_body_indices=robot_bodies, table_geometry_ids=table_ids)
-        return Referee(self.scenario.referee, self.scenario.referee_rate, **kwargs)
+        return Referee(self.scenario.referee, self.scenario.referee_rate,
+                       stop_when_decided=self.end_when_decided, **kwargs)
 
     def _set_awaiting_posture(self) -> None:
         if self.world.robot is None:

@@ -13,7 +13,10 @@ holds the last sample, the contact events so far and whether the robot touched t
 The referee ends the episode (``EventStatus.ReachedTermination``, which stops
 ``Simulator.AdvanceTo``) once the ball has fallen below ``stop_below`` metres: by then every
 outcome is settled, and a ball sliding along the floor costs the integrator four times the steps
-of a ball in flight.
+of a ball in flight. With ``stop_when_decided`` it ends the episode earlier, at the first contact
+after the racket's hit (the landing, the net, the floor or a second touch): that contact decides
+the outcome (:func:`tt_drake.referee_rules.judge`), and the return flight after it is a third
+of a returned ball's episode.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ from pydrake.systems.framework import EventStatus, LeafSystem
 
 from tt_drake.referee_rules import (
     FLOOR_CONTACT,
+    RACKET_CONTACT,
     ContactDetector,
     ContactEvent,
     Outcome,
@@ -47,7 +51,8 @@ class _RefereeState(Immutable):
 class Referee(LeafSystem):
     def __init__(self, config: RefereeConfig | None = None, rate: float = 250.0,
                  racket_body_index=None, racket_offset=(0.0, 0.0, 0.0),
-                 robot_body_indices=(), table_geometry_ids=(), stop_below: float = 0.1):
+                 robot_body_indices=(), table_geometry_ids=(), stop_below: float = 0.1,
+                 stop_when_decided: bool = False):
         super().__init__()
         self.config = config or RefereeConfig()
         self.detector = ContactDetector(self.config)
@@ -56,6 +61,7 @@ class Referee(LeafSystem):
         self._robot_bodies = set(robot_body_indices)
         self._table_geometries = set(table_geometry_ids)
         self._stop_below = stop_below
+        self._stop_when_decided = stop_when_decided
         self.DeclareVectorInputPort("ball_state", 13)
         self.DeclareAbstractInputPort("body_poses", AbstractValue.Make([RigidTransform()]))
         self.DeclareAbstractInputPort("contact_results", AbstractValue.Make(ContactResults()))
@@ -92,11 +98,18 @@ class Referee(LeafSystem):
         cur = ContactDetector.sample(context.get_time(), s[4:7], s[10:13], s[7:10],
                                      self._racket_center(context))
         events = old.events
+        decided = False
         if old.sample is not None:
             event = self.detector.detect(old.sample, cur)
             if event is not None:
+                decided = self._stop_when_decided and any(e.kind == RACKET_CONTACT
+                                                          for e in events)
                 events = (*events, event)
         touched = old.touched or self._robot_touches_table(context)
+        if decided:
+            state.get_mutable_abstract_state(self._state_index).set_value(
+                _RefereeState(cur, events, touched))
+            return EventStatus.ReachedTermination(self, "the return's outcome is decided")
         if cur[1][2] < self._stop_below:
             # The ball is at the floor: that is its last contact, whether or not the floor
             # contact itself fell between samples.

@@ -87,3 +87,22 @@ def test_it_arrives_at_the_hitting_configuration_at_t_hit(stroke_run):
     q_at = samples[k][1][:7] + samples[k][1][7:] * dt
     np.testing.assert_allclose(q_at, q_hit, atol=2e-3)
     np.testing.assert_allclose(samples[k][1][7:], qd_hit, atol=0.05)
+
+
+def test_ending_the_episode_when_the_outcome_is_decided_changes_no_outcome():
+    """The referee may stop at the first contact after the hit (the landing): the same serves
+    give the same outcomes as episodes run until the ball reaches the floor, and shorter ones."""
+    from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
+    from tt_drake.diagrams.scenario import load_scenario
+
+    scenario = load_scenario()
+    full = ServeDiagram(scenario, "analytical", end_when_decided=False)
+    short = ServeDiagram(scenario, "analytical", end_when_decided=True)
+    saved = 0.0
+    for i in range(3):
+        a, b = full.run(episode_seed(77, i)), short.run(episode_seed(77, i))
+        assert a.outcome.as_dict() == b.outcome.as_dict()
+        if a.outcome.returned:
+            assert b.duration < a.duration - 0.2
+        saved += a.duration - b.duration
+    assert saved > 0.5
