@@ -6,7 +6,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= out
 
-.PHONY: install test test-slow test-ray lint demo bench clean
+.PHONY: install test test-slow test-ray lint demo bench reproduce reproduce-quick clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -32,6 +32,14 @@ test-ray: $(STAMP)
 demo: $(STAMP)
 	mkdir -p $(OUT)
 	$(BIN)/tt-drake serve --player analytical --serves 5 --seed 1 --html $(OUT)/demo.html --json $(OUT)/demo.json
+
+# The paper's experiments from nothing (resumable: run it again to continue). The quick run
+# executes every stage on few serves; CI runs it.
+reproduce: $(STAMP)
+	$(BIN)/tt-drake reproduce --out $(OUT)/reproduce
+
+reproduce-quick: $(STAMP)
+	$(BIN)/tt-drake reproduce --quick --out $(OUT)/reproduce-quick
 
 bench: $(STAMP)
 	mkdir -p $(OUT)
