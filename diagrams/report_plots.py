@@ -21,7 +21,6 @@ from __future__ import annotations
 import io
 import math
 import os
-import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -31,7 +30,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Circle, Rectangle
 
 from tt_drake.constants import NET, TABLE
-from tt_drake.outputs import check_writable
+from tt_drake.outputs import atomic_file, check_writable
 
 DPI = 100
 CURVE_FIGSIZE = (7.0, 4.5)  # inches: learning curve and gamma histogram (700 x 450 px)
@@ -93,18 +92,8 @@ def _write_png(path: str | os.PathLike, fig: Figure) -> Path:
     path = check_writable(path)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=DPI)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(buf.getvalue())
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    with atomic_file(path, binary=True) as f:
+        f.write(buf.getvalue())
     return path
 
 

@@ -18,12 +18,13 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
 import zipfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from tt_drake.outputs import atomic_file
 
 __all__ = ["ArtefactError", "FORMAT", "FORMAT_VERSION", "save_artefact", "load_artefact"]
 
@@ -77,17 +78,8 @@ def save_artefact(
         raise ValueError(f"metadata is not JSON-serialisable: {exc}") from exc
     clean[_META_KEY] = np.frombuffer(text.encode("utf-8"), dtype=np.uint8)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez_compressed(fh, **clean)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    with atomic_file(path, binary=True, check=False) as fh:
+        np.savez_compressed(fh, **clean)
     return path
 
 

@@ -6,6 +6,7 @@ folder and is renamed over the destination only when complete.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import tempfile
@@ -29,20 +30,31 @@ def check_writable(path: str | os.PathLike) -> Path:
     return path
 
 
-def write_text_atomic(path: str | os.PathLike, text: str) -> None:
-    path = check_writable(path)
+@contextlib.contextmanager
+def atomic_file(path: str | os.PathLike, binary: bool = False, check: bool = True):
+    """A file object whose content replaces ``path`` only when the block completes: written to
+    a temporary file in the same folder, flushed to disk, given the usual mode (0666 less the
+    umask; ``mkstemp`` makes it 0600) and renamed over ``path``. On any error nothing is left."""
+    path = check_writable(path) if check else Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
     try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
+        with os.fdopen(fd, "wb" if binary else "w") as f:
+            yield f
+            f.flush()
+            os.fsync(f.fileno())
         umask = os.umask(0)
         os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the file the usual mode
+        os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+def write_text_atomic(path: str | os.PathLike, text: str) -> None:
+    with atomic_file(path) as f:
+        f.write(text)
 
 
 def write_json_atomic(path: str | os.PathLike, data: object) -> None:
