@@ -453,7 +453,23 @@ def stage_final(run: Run) -> dict:
         np.save(run.folder("final") / f"landings_{name}.npy", np.array(landings).reshape(-1, 2))
         out[name] = {**rates(episodes), "seed": seed}
         run.say(f"  final player, {name}: return {out[name]['return_rate']:.1%}")
+    out["artefacts"] = _export_artefacts(run, library)
     return out
+
+
+def _export_artefacts(run: Run, library: str) -> dict:
+    """The final player's three artefacts in ``DIR/artefacts/`` (what ``make demo`` ships in
+    models/learned/), with where they came from."""
+    folder = run.folder("artefacts")
+    sources = {"library.npz": library, "crkr.npz": run.result("crkr")["best"],
+               "predictor.npz": run.result("predictor")["model"]}
+    for name, source in sources.items():
+        shutil.copyfile(source, folder / f".{name}.tmp")
+        (folder / f".{name}.tmp").replace(folder / name)
+    provenance = {"command": "tt-drake reproduce" + (" --quick" if run.quick else ""),
+                  "config": run.config.to_dict(), "sources": sources}
+    write_json_atomic(folder / "provenance.json", provenance)
+    return {name: str(folder / name) for name in sources}
 
 
 STAGE_FUNCTIONS = {"teacher": stage_teacher, "predictor": stage_predictor,
