@@ -22,7 +22,7 @@ from tt_drake.artefacts import ArtefactError, load_artefact, save_artefact
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.parallel import run_episodes
 from tt_drake.diagrams.scenario import Scenario
-from tt_drake.outputs import write_json_atomic
+from tt_drake.outputs import claim_folder
 from tt_drake.stages import STAGES
 
 KIND = "teacher-demonstrations"
@@ -51,27 +51,7 @@ def _manifest(scenario: Scenario, player: str, serves: int, seed: int, chunk_siz
 
 def prepare_folder(folder: Path, manifest: dict) -> None:
     """Create ``folder`` with its manifest, or check an existing one is this run's."""
-    if folder.exists() and not folder.is_dir():
-        raise DatasetError(f"not a folder: {folder}")
-    path = folder / MANIFEST
-    if path.exists():
-        try:
-            existing = json.loads(path.read_text())
-        except (OSError, json.JSONDecodeError) as err:
-            raise DatasetError(f"unreadable manifest {path}: {err}") from None
-        if existing != manifest:
-            diff = sorted(k for k in set(existing) | set(manifest)
-                          if existing.get(k) != manifest.get(k))
-            raise DatasetError(f"{folder} holds another run's dataset (differs in "
-                               f"{', '.join(diff)}); use another --out")
-        return
-    if folder.exists() and any(folder.iterdir()):
-        raise DatasetError(f"{folder} is not empty and has no {MANIFEST}; use another --out")
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise DatasetError(f"cannot create {folder}: {err}") from None
-    write_json_atomic(path, manifest)
+    claim_folder(folder, MANIFEST, manifest, DatasetError, "run's dataset")
 
 
 def _pack(indices: list[int], seeds: list[int], results: list) -> dict:

@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from tt_drake.outputs import write_json_atomic
+from tt_drake.outputs import claim_folder, write_json_atomic
 
 CHUNK = 100
 STAGES = ("teacher", "predictor", "library", "crkr", "single", "gamma1", "responsibility",
@@ -114,23 +114,7 @@ class Run:
     def _prepare(self) -> None:
         settings = {"format": "tt-drake-reproduce", "version": 1, "quick": self.quick,
                     "config": self.config.to_dict()}
-        path = self.root / "config.json"
-        if self.root.exists() and not self.root.is_dir():
-            raise ReproduceError(f"not a folder: {self.root}")
-        if path.exists():
-            try:
-                existing = json.loads(path.read_text())
-            except (OSError, json.JSONDecodeError) as err:
-                raise ReproduceError(f"unreadable {path}: {err}") from None
-            if existing != settings:
-                raise ReproduceError(f"{self.root} holds another run (quick={existing.get('quick')}"
-                                     f"); use another --out")
-            return
-        if self.root.exists() and any(self.root.iterdir()):
-            raise ReproduceError(f"{self.root} is not empty and has no config.json; use another "
-                                 "--out")
-        self.root.mkdir(parents=True, exist_ok=True)
-        write_json_atomic(path, settings)
+        claim_folder(self.root, "config.json", settings, ReproduceError, "run")
 
     def folder(self, stage: str) -> Path:
         path = self.root / stage

@@ -59,3 +59,36 @@ def write_text_atomic(path: str | os.PathLike, text: str) -> None:
 
 def write_json_atomic(path: str | os.PathLike, data: object) -> None:
     write_text_atomic(path, json.dumps(data, indent=2) + "\n")
+
+
+def claim_folder(folder: str | os.PathLike, manifest_name: str, manifest: dict,
+                 error: type[Exception], what: str = "run") -> Path:
+    """Make ``folder`` the home of the run ``manifest`` describes, or check it already is.
+
+    A new or empty folder is created with ``folder/manifest_name``; a folder whose manifest
+    equals ``manifest`` is resumed; anything else (another run's manifest, an unreadable one, or
+    files but no manifest) raises ``error`` naming the difference, and nothing is touched."""
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise error(f"not a folder: {folder}")
+    path = folder / manifest_name
+    if path.exists():
+        try:
+            existing = json.loads(path.read_text())
+        except (OSError, json.JSONDecodeError) as err:
+            raise error(f"unreadable {path}: {err}") from None
+        if existing != manifest:
+            keys = set(existing) | set(manifest) if isinstance(existing, dict) else set(manifest)
+            diff = sorted(k for k in keys if not isinstance(existing, dict)
+                          or existing.get(k) != manifest.get(k))
+            raise error(f"{folder} holds another {what} (differs in {', '.join(diff)}); use "
+                        "another --out")
+        return folder
+    if folder.exists() and any(folder.iterdir()):
+        raise error(f"{folder} is not empty and has no {manifest_name}; use another --out")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise error(f"cannot create {folder}: {err}") from None
+    write_json_atomic(path, manifest)
+    return folder
