@@ -199,8 +199,11 @@ def rates(episodes: list[dict]) -> dict:
         out["fallback_strokes"] = sum(s["fallback"] for s in strokes)
         # A stroke the teacher's quintics carried (the primitives' plan left the joint limits)
         # is no success of the motor primitives.
-        out["momp_return_rate"] = sum(bool(e["returned"]) and not e.get("stroke", {}).get(
-            "fallback", False) for e in episodes) / n
+        carried = [not e.get("stroke", {}).get("fallback", False) for e in episodes]
+        out["momp_return_rate"] = sum(bool(e["returned"]) and c
+                                      for e, c in zip(episodes, carried, strict=True)) / n
+        out["momp_target_rate"] = sum(bool(e["on_target"]) and c
+                                      for e, c in zip(episodes, carried, strict=True)) / n
     return out
 
 

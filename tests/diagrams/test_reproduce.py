@@ -28,6 +28,7 @@ def test_rates_do_not_credit_the_primitives_with_a_fallback_stroke():
                 _episode(False, 0.0, [0], [1.0]), _episode(False, 0.2, [1], [1.0])]
     r = rp.rates(episodes)
     assert r["return_rate"] == 0.5 and r["momp_return_rate"] == 0.25
+    assert r["target_rate"] == 0.5 and r["momp_target_rate"] == 0.25
     assert r["hit_rate"] == 0.5 and r["fallback_strokes"] == 1
     assert r["mean_reward"] == pytest.approx(2.1 / 4)
     assert [rp.credited_reward(e) for e in episodes] == [1.0, 0.0, 0.0, 0.2]
