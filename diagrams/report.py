@@ -28,8 +28,8 @@ PAPER = {
                "about 27 % (30 %)", None),
     "final": ("Learned MoMP player (responsibilities learned): legal return / on target",
               "94 %", 0.94),
-    "real": ("Learned MoMP player on real serves (Ryu & Kim data): legal return / on target",
-             "-", None),
+    "real": ("Learned MoMP player on real serve states (D'Ambrosio et al. 2025, CC-BY 4.0): "
+             "legal return / on target", "-", None),
 }
 
 
