@@ -14,7 +14,7 @@ The referee ends the episode (``EventStatus.ReachedTermination``, which stops
 ``Simulator.AdvanceTo``) once the ball has fallen below ``stop_below`` metres: by then every
 outcome is settled, and a ball sliding along the floor costs the integrator four times the steps
 of a ball in flight. With ``stop_when_decided`` it ends the episode earlier, at the first contact
-after the racket's hit (the landing, the net, the floor or a second touch): that contact decides
+after the racket's hit on the table, the net or the floor (the landing, or the fault): it decides
 the outcome (:func:`tt_drake.referee_rules.judge`), and the return flight after it is a third
 of a returned ball's episode.
 """
@@ -28,11 +28,11 @@ from pydrake.systems.framework import EventStatus, LeafSystem
 
 from tt_drake.referee_rules import (
     FLOOR_CONTACT,
-    RACKET_CONTACT,
     ContactDetector,
     ContactEvent,
     Outcome,
     RefereeConfig,
+    decides_return,
     judge,
 )
 from tt_drake.systems.immutable import Immutable
@@ -102,8 +102,7 @@ class Referee(LeafSystem):
         if old.sample is not None:
             event = self.detector.detect(old.sample, cur)
             if event is not None:
-                decided = self._stop_when_decided and any(e.kind == RACKET_CONTACT
-                                                          for e in events)
+                decided = self._stop_when_decided and decides_return(events, event)
                 events = (*events, event)
         touched = old.touched or self._robot_touches_table(context)
         if decided:

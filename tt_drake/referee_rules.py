@@ -157,6 +157,14 @@ class Outcome:
         }
 
 
+def decides_return(events, event: ContactEvent) -> bool:
+    """Whether ``event``, following ``events``, settles the episode's outcome: a contact with
+    the table, the net or the floor after the racket's hit (:func:`judge` reads no further). A
+    second racket event does not: one contact straddling two samples shows as two."""
+    return (event.kind in (TABLE_CONTACT, NET_CONTACT, FLOOR_CONTACT)
+            and any(e.kind == RACKET_CONTACT for e in events))
+
+
 def merge_contacts(events: list[ContactEvent], window: float = 0.012) -> list[ContactEvent]:
     """One event per contact: a contact that straddles samples shows as several events of the
     same kind within a few milliseconds; keep the first."""

@@ -116,3 +116,24 @@ def test_robot_touching_the_table_caps_the_reward():
     events = script(SERVE, crossing_time(), return_velocity(TARGET.y))
     outcome = judge(events, robot_touched_table=True)
     assert outcome.returned and "robot_table" in outcome.faults and outcome.reward <= 0.1
+
+
+def test_the_return_is_decided_by_the_first_table_net_or_floor_contact_after_the_hit():
+    """An early end of the episode (the referee's stop_when_decided) must leave judge's verdict
+    unchanged: a racket contact straddling two samples (two racket events 4 ms apart) does not
+    end it, the landing after the hit does, and so do the net and the floor."""
+    from tt_drake.referee_rules import ContactEvent, decides_return
+
+    bounce = ContactEvent(0.30, "table", np.array([0.1, -0.8, 0.78]))
+    hit = ContactEvent(0.70, "racket", np.array([0.2, -1.82, 1.0]))
+    again = ContactEvent(0.704, "racket", np.array([0.2, -1.81, 1.0]))
+    landing = ContactEvent(1.20, "table", np.array([0.0, 0.7, 0.78]))
+    assert not decides_return([bounce], hit)
+    assert not decides_return([bounce, hit], again)
+    assert not decides_return([], bounce)
+    assert decides_return([bounce, hit, again], landing)
+    for kind in ("net", "floor"):
+        assert decides_return([bounce, hit], ContactEvent(1.0, kind, np.zeros(3)))
+    full = judge([bounce, hit, again, landing, ContactEvent(1.6, "floor", np.zeros(3))])
+    cut = judge([bounce, hit, again, landing])
+    assert full.as_dict() == cut.as_dict() and cut.returned
