@@ -346,7 +346,8 @@ def stage_gamma1(run: Run) -> dict:
                                 c.gamma1_seed, desc=f"MoMP gamma=1 ({configuration})")
         out[configuration] = rates(episodes)
         run.say(f"  MoMP gamma = 1 ({configuration}): return "
-                f"{out[configuration]['return_rate']:.1%}")
+                f"{out[configuration]['momp_return_rate']:.1%} by the primitives "
+                f"({out[configuration]['return_rate']:.1%} with fallbacks)")
     return {**out, "seed": c.gamma1_seed, "serves": c.gamma1_serves}
 
 
@@ -398,8 +399,9 @@ def stage_responsibility(run: Run) -> dict:
         save_artefact(folder / "state.npz", "responsibility-learning", state,
                       {"rollouts": int(start + size)})
         shutil.rmtree(folder / f"batch_{b:04d}", ignore_errors=True)  # now in the state
-        run.say(f"  responsibility batch {b + 1}/{batches}: return {r['return_rate']:.1%}, "
-                f"pruned {int(curve[-1, 3])} of {n}")
+        run.say(f"  responsibility batch {b + 1}/{batches}: return {r['momp_return_rate']:.1%} "
+                f"by the primitives ({r['return_rate']:.1%} with fallbacks), pruned "
+                f"{int(curve[-1, 3])} of {n}")
     gamma = state["gamma"]
     pruned = gamma == 0
     earlier = (float(state["success"][pruned].sum() / state["usage"][pruned].sum())
@@ -439,7 +441,8 @@ def stage_final(run: Run) -> dict:
         landings = [e["landing"] for e in episodes if e["landing"] is not None]
         np.save(run.folder("final") / f"landings_{name}.npy", np.array(landings).reshape(-1, 2))
         out[name] = {**rates(episodes), "seed": seed}
-        run.say(f"  final player, {name}: return {out[name]['return_rate']:.1%}")
+        run.say(f"  final player, {name}: return {out[name]['momp_return_rate']:.1%} by the "
+                f"primitives ({out[name]['return_rate']:.1%} with fallbacks)")
     out["artefacts"] = _export_artefacts(run, library)
     return out
 
