@@ -95,12 +95,15 @@ def table_rows(results: dict) -> list[dict]:
                          resp["pruned_share"], resp["rollouts"],
                          f"{resp['rollouts']} rollouts in batches of {resp['batch']}, --seed "
                          f"{resp['seed']}+batch"))
-    final = results.get("final")
+    final = results.get("final") or results.get("final_partial")
     if final:
         for key in ("default", "real"):
+            if key not in final:
+                continue
             r = final[key]
+            note = " (partial: the stage is still running)" if r.get("partial") else ""
             rows.append(_row("final" if key == "default" else "real",
-                             _momp(r), r["momp_return_rate"], r["serves"],
+                             _momp(r) + note, r["momp_return_rate"], r["serves"],
                              f"--player momp --library DIR/responsibility/library_learned.npz "
                              f"--distribution {key} --seed {r['seed']}"))
     return rows
@@ -161,11 +164,32 @@ def _plots(run, results: dict) -> list[str]:
     return [str(Path(p).relative_to(run.root)) for p in written]
 
 
+def _partial_final(run) -> dict:
+    """The final stage's figures from the chunks finished so far (a run read part-way)."""
+    from tt_drake.diagrams.reproduce import rates
+
+    out = {}
+    for key, seed in (("default", run.config.final_seed), ("real", run.config.real_seed)):
+        episodes = []
+        for path in sorted((run.root / "final" / key).glob("episodes_*.json")):
+            try:
+                episodes += json.loads(path.read_text())
+            except (OSError, json.JSONDecodeError):
+                continue
+        if episodes:
+            out[key] = {**rates(episodes), "seed": seed, "partial": True}
+    return out
+
+
 def write_report(run) -> dict:
     from tt_drake.diagrams.reproduce import STAGES
 
     results = {stage: run.result(stage) for stage in STAGES}
     results = {k: v for k, v in results.items() if v is not None}
+    if "final" not in results:
+        partial = _partial_final(run)
+        if partial:
+            results["final_partial"] = partial
     rows = table_rows(results)
     plots = _plots(run, results)
     report = {"quick": run.quick, "config": run.config.to_dict(), "workers": run.workers,
