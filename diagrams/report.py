@@ -122,8 +122,8 @@ def _plots(run, results: dict) -> list[str]:
         curve = np.array(resp["curve"])
         written.append(rp.plot_learning_curve(
             folder / "responsibility_learning.png",
-            [{"label": "legal return", "x": curve[:, 0], "y": curve[:, 1]},
-             {"label": "on target", "x": curve[:, 0], "y": curve[:, 2]},
+            [{"label": "legal return by the primitives", "x": curve[:, 0], "y": curve[:, 1]},
+             {"label": "on target (fallbacks counted)", "x": curve[:, 0], "y": curve[:, 2]},
              {"label": "share pruned", "x": curve[:, 0], "y": curve[:, 3] / resp["primitives"]}],
             xlabel="rollouts", ylabel="per batch", title="Responsibility learning (Algorithm 3)",
             paper={"final success": 0.94, "gamma = 1": 0.67}))
