@@ -29,9 +29,14 @@ test-ray: $(STAMP)
 	$(BIN)/python -m pip install --quiet -e '.[ray,test]'
 	$(BIN)/python -m pytest -m ray -q
 
+# The learned MoMP player with the artefacts shipped in models/learned/ (made by `make
+# reproduce`; models/learned/README.md says how to regenerate them).
+LEARNED := models/learned
 demo: $(STAMP)
 	mkdir -p $(OUT)
-	$(BIN)/tt-drake serve --player analytical --serves 5 --seed 1 --html $(OUT)/demo.html --json $(OUT)/demo.json
+	$(BIN)/tt-drake serve --player momp --library $(LEARNED)/library.npz \
+	    --crkr $(LEARNED)/crkr.npz --predictor $(LEARNED)/predictor.npz \
+	    --serves 5 --seed 1 --html $(OUT)/demo.html --json $(OUT)/demo.json
 
 # The paper's experiments from nothing (resumable: run it again to continue). The quick run
 # executes every stage on few serves; CI runs it.
