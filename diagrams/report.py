@@ -144,12 +144,17 @@ def _plots(run, results: dict) -> list[str]:
              {"label": "on target", "x": x, "y": np.array([it["target_rate"] for it in its])}],
             xlabel="policy iteration", ylabel="rate", title="CrKR hitting configuration",
             paper={"return, iteration 2": 0.95, "on target, iteration 2": 0.63}))
-    if results.get("final"):
+    if results.get("final") or results.get("final_partial"):
         points = {}
         for key in ("default", "real"):
             path = run.root / "final" / f"landings_{key}.npy"
             if path.exists():
                 points[f"{key} serves"] = np.load(path)
+            else:
+                landings = [e["landing"] for e in _chunk_episodes(run.root / "final" / key)
+                            if e["landing"] is not None]
+                if landings:
+                    points[f"{key} serves (so far)"] = np.array(landings).reshape(-1, 2)
         if points:
             referee = RefereeConfig()
             written.append(rp.plot_landing_points(
@@ -164,18 +169,24 @@ def _plots(run, results: dict) -> list[str]:
     return [str(Path(p).relative_to(run.root)) for p in written]
 
 
+def _chunk_episodes(folder: Path) -> list[dict]:
+    """The episodes of the rollout chunks finished so far in ``folder``."""
+    episodes = []
+    for path in sorted(folder.glob("episodes_*.json")):
+        try:
+            episodes += json.loads(path.read_text())
+        except (OSError, json.JSONDecodeError):
+            continue
+    return episodes
+
+
 def _partial_final(run) -> dict:
     """The final stage's figures from the chunks finished so far (a run read part-way)."""
     from tt_drake.diagrams.reproduce import rates
 
     out = {}
     for key, seed in (("default", run.config.final_seed), ("real", run.config.real_seed)):
-        episodes = []
-        for path in sorted((run.root / "final" / key).glob("episodes_*.json")):
-            try:
-                episodes += json.loads(path.read_text())
-            except (OSError, json.JSONDecodeError):
-                continue
+        episodes = _chunk_episodes(run.root / "final" / key)
         if episodes:
             out[key] = {**rates(episodes), "seed": seed, "partial": True}
     return out
