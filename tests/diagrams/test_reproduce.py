@@ -115,3 +115,23 @@ def test_responsibility_learning_prunes_the_failing_primitives_and_resumes(tmp_p
     np.testing.assert_array_equal(rest.gammas[0], straight.gammas[2])
     for key in ("pruned", "pruned_share", "curve"):
         assert resumed[key] == whole[key]
+
+
+def test_report_rows_compare_with_the_paper_and_say_the_shortfall():
+    from tt_drake.diagrams.report import table_rows
+
+    stroke = {"return_rate": 0.99, "target_rate": 0.9, "momp_return_rate": 0.9,
+              "momp_target_rate": 0.85, "fallback_strokes": 9, "serves": 100}
+    results = {
+        "predictor": {"max_nmse": 0.004, "eval": {"serves": 3500}, "command": "c"},
+        "crkr": {"iterations": [{"iteration": 1, "return_rate": 0.9, "target_rate": 0.5,
+                                 "serves": 100, "seed": 21}]},
+        "final_partial": {"default": {**stroke, "seed": 2026, "partial": True}},
+    }
+    rows = {r["key"]: r for r in table_rows(results)}
+    assert rows["gpr_nmse"]["meets_paper"]
+    assert rows["crkr_1"]["shortfall"] == "4.0 points below the paper"
+    final = rows["final"]
+    assert final["value"] == 0.9 and "partial" in final["ours"] and "9 fallback" in final["ours"]
+    assert final["shortfall"] == "4.0 points below the paper"
+    assert "real" not in rows and "gamma1" not in rows
