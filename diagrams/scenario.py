@@ -33,12 +33,16 @@ class LearnedPlayerConfig:
     """Artefacts of the learned (``momp``) player: the primitive library and CrKR model from
     ``tt-drake train library|crkr``, the GPR predictor from ``tt-drake train-predictor`` (empty:
     the physical-model predictor), and where the hitting configuration comes from: ``crkr`` or
-    ``analytical`` (the teacher's IK on the predicted stimulus)."""
+    ``analytical`` (the teacher's IK on the predicted stimulus). With ``early_prediction`` the
+    physical model predicts from every estimate of the approaching ball until the predictor's
+    final prediction, so the preparation stage starts when the ball is detected (paper section
+    III-C); without, the player waits for the final prediction."""
 
     library: str = ""
     crkr: str = ""
     predictor: str = ""
     configuration: str = "crkr"
+    early_prediction: bool = True
 
 
 @dataclass

@@ -3,19 +3,28 @@
 Every camera period (two thirds of a period after the camera's update) it reads the estimator's
 ``state`` and ``status``. Each new valid estimate with ``p_y < observation_y`` and ``v_y < 0``
 (past the virtual plane s, moving toward the robot) is collected; a non-qualifying one restarts the
-count. At the fourth consecutive one it predicts once, with the GPR
+count. At the fourth consecutive one it makes the **final** prediction, with the GPR
 (:class:`tt_drake.hitting_point.HittingPointGPR`, features = the four states) or the physical
 model (:class:`tt_drake.hitting_point.PhysicalPredictor`, from the fourth state), and holds it.
+
+With an ``early`` physical predictor, every valid estimate of a ball moving toward the robot
+(``v_y < 0``) before the final prediction gives an **early** one from that state: the paper
+starts the preparation stage as soon as "the system detects a ping pong ball that is moving
+towards the robot" and re-estimates the goal as the ball flies (section III-C). An early
+prediction is published (``valid`` = 1, ``final`` = 0) when it is the first, or moved more than
+``early_tolerance`` = (metres, seconds) from the published one, so that a player re-plans only on
+a real change; the final prediction replaces it (``final`` = 1).
 
 Ports:
 
 - inputs ``state`` (6) and ``status`` (2: valid, t_state) from ``BallFlightEstimator``;
-- outputs ``p_hit`` (3), ``v_hit`` (3), ``t_hit`` (1) and ``valid`` (1). ``t_hit`` is an
-  **absolute** simulation time: the fourth observation's capture time plus the predicted time to
-  go (the regressors learn the time to go, which does not depend on the episode's clock).
+- outputs ``p_hit`` (3), ``v_hit`` (3), ``t_hit`` (1), ``valid`` (1) and ``final`` (1).
+  ``t_hit`` is an **absolute** simulation time: the capture time of the state predicted from
+  plus the predicted time to go (the regressors learn the time to go, which does not depend on
+  the episode's clock).
 
 Discrete state: ``[n_collected, last_t, observations (4 x 6), p_hit (3), v_hit (3), t_hit,
-valid]``; outputs copy slices of it.
+valid, final]``; outputs copy slices of it.
 """
 
 import math
@@ -33,15 +42,18 @@ _OUT = 2 + 6 * N_OBSERVATIONS
 class HittingPointPredictor(LeafSystem):
     def __init__(self, gpr: HittingPointGPR | None = None,
                  physical: PhysicalPredictor | None = None, rate: float = 60.0,
-                 observation_y: float = PLANES.observation_y):
+                 observation_y: float = PLANES.observation_y,
+                 early: PhysicalPredictor | None = None,
+                 early_tolerance: tuple[float, float] = (0.02, 0.01)):
         super().__init__()
         if gpr is None and physical is None:
             physical = PhysicalPredictor()
-        self.gpr, self.physical = gpr, physical
+        self.gpr, self.physical, self.early = gpr, physical, early
         self.observation_y = observation_y
+        self.early_tolerance = tuple(float(x) for x in early_tolerance)
         self._state = self.DeclareVectorInputPort("state", 6)
         self._status = self.DeclareVectorInputPort("status", 2)
-        initial = np.zeros(_OUT + 8)
+        initial = np.zeros(_OUT + 9)
         initial[1] = -math.inf
         self._xd = self.DeclareDiscreteState(initial)
         period = 1.0 / rate
@@ -54,6 +66,8 @@ class HittingPointPredictor(LeafSystem):
         self.DeclareVectorOutputPort("t_hit", 1, self._calc(_OUT + 6, _OUT + 7),
                                      prerequisites_of_calc=deps)
         self.DeclareVectorOutputPort("valid", 1, self._calc(_OUT + 7, _OUT + 8),
+                                     prerequisites_of_calc=deps)
+        self.DeclareVectorOutputPort("final", 1, self._calc(_OUT + 8, _OUT + 9),
                                      prerequisites_of_calc=deps)
 
     def _calc(self, lo, hi):
@@ -72,7 +86,7 @@ class HittingPointPredictor(LeafSystem):
         status = self._status.Eval(context)
         x = context.get_discrete_state(self._xd).get_value()
         t = float(status[1])
-        if status[0] < 0.5 or not t > x[1] or x[_OUT + 7] == 1.0:
+        if status[0] < 0.5 or not t > x[1] or x[_OUT + 8] == 1.0:
             return
         new = x.copy()
         new[1] = t
@@ -84,12 +98,24 @@ class HittingPointPredictor(LeafSystem):
         else:
             n = 0
         new[0] = n
+        pred = None
         if n == N_OBSERVATIONS:
             pred = self.predict(new[_OBS:_OUT].reshape(N_OBSERVATIONS, 6))
             if pred is None:
                 new[0] = 0
             else:
-                new[_OUT:_OUT + 6] = pred[:6]
-                new[_OUT + 6] = t + pred[6]
-                new[_OUT + 7] = 1.0
+                new[_OUT + 8] = 1.0
+        if pred is None and self.early is not None and s[4] < 0.0:
+            pred = self.early.predict(s)
+            if pred is not None and x[_OUT + 7] == 1.0 and not self._moved(x, pred, t):
+                pred = None
+        if pred is not None:
+            new[_OUT:_OUT + 6] = pred[:6]
+            new[_OUT + 6] = t + pred[6]
+            new[_OUT + 7] = 1.0
         discrete_state.set_value(self._xd, new)
+
+    def _moved(self, x, pred, t: float) -> bool:
+        """An early prediction farther than ``early_tolerance`` from the published one."""
+        return (float(np.linalg.norm(pred[:3] - x[_OUT:_OUT + 3])) > self.early_tolerance[0]
+                or abs(t + pred[6] - x[_OUT + 6]) > self.early_tolerance[1])

@@ -102,6 +102,48 @@ def test_predictor_collects_four_observations_after_the_plane():
         (first_after + 3) * PERIOD + expected[6])
 
 
+def test_early_predictions_until_the_final_one():
+    """With an early physical predictor: a prediction from the first approaching estimate on,
+    re-published only when it moves more than the tolerance, then the final prediction from the
+    four observations after plane s, held. The estimates follow the physical model's own flight,
+    switching once to a flight launched 0.3 m/s faster sideways (new information)."""
+    early = PhysicalPredictor()
+    model = early.model
+    serve = np.array([-0.08, 1.57, 0.91, 1.46, -6.14, 2.17])
+    changed = serve + np.r_[0, 0, 0, 0.3, 0, 0]
+    switch = 6
+
+    def flight(launch, t):
+        c = model.predict_time(launch, t)
+        return np.r_[c.position, c.velocity]
+
+    states = [np.r_[serve[:3], -serve[3:]]]  # moving away from the robot: no prediction
+    states += [flight(serve if k < switch else changed, k * PERIOD) for k in range(1, 26)]
+    pred = HittingPointPredictor(early=early, early_tolerance=(0.02, 0.01))
+    ctx = pred.CreateDefaultContext()
+    published, last = 0, None
+    for k, s in enumerate(states):
+        pred.GetInputPort("state").FixValue(ctx, s)
+        pred.GetInputPort("status").FixValue(ctx, [1.0, k * PERIOD])
+        step(pred, ctx, k * PERIOD + 2 * PERIOD / 3)
+        out = np.r_[pred.GetOutputPort("p_hit").Eval(ctx), pred.GetOutputPort("v_hit").Eval(ctx),
+                    pred.GetOutputPort("t_hit").Eval(ctx)]
+        after = sum(1 for j in range(1, k + 1) if states[j][1] < PLANES.observation_y)
+        assert pred.GetOutputPort("valid").Eval(ctx)[0] == (0.0 if k == 0 else 1.0)
+        assert pred.GetOutputPort("final").Eval(ctx)[0] == (1.0 if after >= 4 else 0.0)
+        if k == 0 or after >= 4:
+            continue
+        if last is None or not np.array_equal(out, last):
+            published, last = published + 1, out
+            here = early.predict(s)
+            assert out == pytest.approx(np.r_[here[:6], k * PERIOD + here[6]], abs=1e-12)
+    assert published == 2  # the first estimate, then the switch of flight
+    first_after = next(j for j, s in enumerate(states) if j and s[1] < PLANES.observation_y)
+    expected = PhysicalPredictor().predict(states[first_after + 3])
+    assert out[:6] == pytest.approx(expected[:6])
+    assert out[6] == pytest.approx((first_after + 3) * PERIOD + expected[6])
+
+
 def test_diagram_matches_the_offline_pipeline():
     """Camera -> estimator -> predictor in a Drake world equals the numpy pipeline on the log."""
     sample = generate_samples(1, 5, None, workers=1, progress=False)
