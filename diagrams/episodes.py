@@ -124,6 +124,7 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     from tt_drake.hitting_point import PhysicalPredictor
     from tt_drake.systems.analytical_player import PlannerConfig, StrokePlanner
     from tt_drake.systems.hitting_configuration import HittingConfiguration
+    from tt_drake.systems.hitting_ik import HittingIK
     from tt_drake.systems.hitting_point_predictor import HittingPointPredictor
     from tt_drake.systems.momp_player import MoMPTrajectorySource
 
@@ -144,7 +145,7 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
         configuration = HittingConfiguration("analytical", planner=StrokePlanner(config=config))
     configuration = builder.AddNamedSystem("hitting_configuration", configuration)
     player = builder.AddNamedSystem("momp_player", MoMPTrajectorySource(
-        learned.get("library"), learned.get("stages")))
+        learned.get("library"), learned.get("stages"), arm=HittingIK()))
     for name in ("p_hit", "v_hit", "t_hit", "valid"):
         builder.Connect(predictor.GetOutputPort(name), configuration.GetInputPort(name))
     for name in ("p_hit", "v_hit", "t_hit"):

@@ -53,6 +53,7 @@ from tt_drake.stages import (
     StageTimes,
     plan_extremes,
     plan_stroke,
+    within_effort,
 )
 from tt_drake.systems.immutable import Immutable
 from tt_drake.systems.stage_player import StagePlanPlayer
@@ -200,14 +201,8 @@ class StrokePlanner:
             return False
         if not hasattr(self.arm, "torques"):
             return True
-        budget = self.config.torque_fraction * self.effort_limit
-        for _, seg in plan.segments:
-            if seg.t_end <= now:
-                continue
-            for t in np.arange(max(seg.t0, now), seg.t_end + 1e-9, 0.02):
-                if np.any(np.abs(self.arm.torques(*seg.evaluate(t))) > budget):
-                    return False
-        return True
+        return within_effort(plan, self.arm.torques,
+                             self.config.torque_fraction * self.effort_limit, now)
 
     def plan(self, now: float, current: StagePlan, stroke: Stroke) -> StagePlan | None:
         """The current plan up to ``now`` followed by the stroke; None to keep waiting.

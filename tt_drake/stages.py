@@ -223,3 +223,17 @@ def plan_extremes(plan: StagePlan, rate: float = 500.0) -> dict:
     q, v, a = np.vstack(qs), np.vstack(vs), np.vstack(accs)
     return {"q_min": q.min(0), "q_max": q.max(0), "qd_max": np.abs(v).max(0),
             "qdd_max": np.abs(a).max(0)}
+
+
+def within_effort(plan: StagePlan, torques, budget, now: float = -np.inf,
+                  rate: float = 50.0) -> bool:
+    """Inverse dynamics ``torques(q, q_dot, q_ddot)`` along ``plan`` from ``now`` on, sampled at
+    ``rate`` Hz, within ``budget`` (per joint) everywhere: the controller can then follow it."""
+    budget = np.asarray(budget, dtype=float)
+    for _, seg in plan.segments:
+        if seg.t_end <= now:
+            continue
+        for t in np.arange(max(seg.t0, now), seg.t_end + 1e-9, 1.0 / rate):
+            if np.any(np.abs(torques(*seg.evaluate(t))) > budget):
+                return False
+    return True
