@@ -14,9 +14,10 @@ re-plans the stroke from the current desired state with
 - follow-through and the return to the awaiting posture: their stage DMPs.
 
 The hitting stage lasts 0.4 s after a preparation if there is time for both; with a late
-prediction, shorter hitting stages (down to 0.2 s) still after a preparation, and last a hitting
-stage from the current state until t_hit, are tried in turn; the first plan inside the joint
-position, velocity (10 rad/s) and acceleration (200 rad/s^2) limits is executed. A hitting DMP
+prediction, shorter hitting stages (down to 0.15 s) still after a preparation, and last a
+hitting stage from the current state until t_hit, are tried in turn; the first plan inside the
+joint position, velocity (10 rad/s) and acceleration (200 rad/s^2) limits, and (with an ``arm``)
+within ``torque_fraction`` of the effort limits by inverse dynamics, is executed. A hitting DMP
 started far from where the demonstrations started (they start at rest at q_prep) is the usual
 offender. (DMP amplitude scaling, ``eta = (g_f - y0) / A``, mirrors or amplifies the demonstrated
 shape.) If none is inside the limits the player keeps its previous plan if it has one, and

@@ -170,3 +170,38 @@ def test_a_late_prediction_shortens_the_hitting_stage_and_still_arrives():
     q, qd, _ = state.plan.evaluate(T_HIT)
     np.testing.assert_allclose(q, Q_HIT, atol=1e-3)
     np.testing.assert_allclose(qd, QD_HIT, atol=2e-2)
+
+
+@pytest.fixture(scope="module")
+def arm():
+    from tt_drake.systems.hitting_ik import HittingIK
+
+    return HittingIK()
+
+
+def _plan_torques(arm, plan, t0):
+    ts = [t for _, seg in plan.segments for t in np.arange(max(seg.t0, t0), seg.t_end, 0.02)]
+    return np.array([np.abs(arm.torques(*plan.evaluate(t))) for t in ts])
+
+
+def test_effort_budget_decides_between_the_primitives_and_the_fallback(arm):
+    """With an arm, the executed primitive plan's inverse dynamics stay within the budget (1.5x
+    the effort limits); a budget below that plan's peak leaves only the teacher's fallback."""
+    from tt_drake.systems.momp_player import MoMPConfig
+
+    library, stages, stimuli = synthetic_library()
+    effort = np.asarray(wp.EFFORT_LIMIT, dtype=float)
+    peaks = {}
+    for fraction in (1.5, 0.05):
+        player = MoMPTrajectorySource(library, stages, MoMPConfig(torque_fraction=fraction),
+                                      arm=arm)
+        context = player.CreateDefaultContext()
+        fix_inputs(player, context, stimuli[2], T_HIT)
+        context.SetTime(0.1)
+        player.ExecuteForcedEvents(context)
+        state = player.player_state(context)
+        peaks[fraction] = (state.stroke.fallback,
+                           (_plan_torques(arm, state.plan, 0.1).max(axis=0) / effort).max())
+    fallback, peak = peaks[1.5]
+    assert not fallback and 0.05 < peak <= 1.5
+    assert peaks[0.05][0]  # the same stroke is refused within 5 % of the effort limits
