@@ -39,7 +39,8 @@ def _pct(x) -> str:
 
 def _momp(r: dict) -> str:
     """A MoMP player's figure: legal returns carried by the primitives / on target, with the
-    strokes the teacher's quintics carried (the primitives' plan left the joint limits)."""
+    strokes the teacher's quintics carried (the primitives' plan left the joint or effort
+    limits)."""
     text = f"{_pct(r['momp_return_rate'])} / {_pct(r['momp_target_rate'])}"
     if r.get("fallback_strokes"):
         text += (f" ({r['fallback_strokes']} fallback strokes; {_pct(r['return_rate'])} / "

@@ -197,8 +197,8 @@ def rates(episodes: list[dict]) -> dict:
     strokes = [e["stroke"] for e in episodes if "stroke" in e]
     if strokes:
         out["fallback_strokes"] = sum(s["fallback"] for s in strokes)
-        # A stroke the teacher's quintics carried (the primitives' plan left the joint limits)
-        # is no success of the motor primitives.
+        # A stroke the teacher's quintics carried (the primitives' plan left the joint or effort
+        # limits) is no success of the motor primitives.
         carried = [not e.get("stroke", {}).get("fallback", False) for e in episodes]
         out["momp_return_rate"] = sum(bool(e["returned"]) and c
                                       for e, c in zip(episodes, carried, strict=True)) / n
@@ -209,7 +209,8 @@ def rates(episodes: list[dict]) -> dict:
 
 def credited_reward(episode: dict) -> float:
     """The reward the responsibility learning credits: the referee's, and 0 for a stroke whose
-    primitives' plan left the joint limits (the mixture failed, whatever the fallback did)."""
+    primitives' plan left the joint or effort limits (the mixture failed, whatever the fallback
+    did)."""
     stroke = episode.get("stroke") or {}
     return 0.0 if stroke.get("fallback") else float(episode["reward"])
 

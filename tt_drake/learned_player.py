@@ -195,8 +195,8 @@ class MoMPStroke:
     primitives: np.ndarray  # indices into the library
     mixture: np.ndarray  # their normalised gating weights nu_i
     replans: int = 1
-    # The MoMP plan left the joint limits and the teacher's quintic stages were used instead;
-    # ``primitives`` and ``mixture`` are then those of the mixture that failed.
+    # The MoMP plan left the joint or effort limits and the teacher's quintic stages were used
+    # instead; ``primitives`` and ``mixture`` are then those of the mixture that failed.
     fallback: bool = False
 
 
