@@ -108,6 +108,8 @@ class MoMPTrajectorySource(StagePlanPlayer):
         self.library, self.stages, self.arm = library, stages, arm
         self.config = config or MoMPConfig()
         self.limits = joint_limits()
+        self._effort_budget = self.config.torque_fraction * np.asarray(wp.EFFORT_LIMIT,
+                                                                       dtype=float)
         self.q_await = np.asarray(wp.AWAITING if q_await is None else q_await, dtype=float)
         self._p = self.DeclareVectorInputPort("p_hit", 3)
         self._v = self.DeclareVectorInputPort("v_hit", 3)
@@ -200,8 +202,7 @@ class MoMPTrajectorySource(StagePlanPlayer):
     def _within_effort(self, plan: StagePlan, now: float) -> bool:
         if self.arm is None:
             return True
-        budget = self.config.torque_fraction * np.asarray(wp.EFFORT_LIMIT, dtype=float)
-        return within_effort(plan, self.arm.torques, budget, now)
+        return within_effort(plan, self.arm.torques, self._effort_budget, now)
 
     @staticmethod
     def hit_point(stroke):
