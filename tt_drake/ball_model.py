@@ -111,6 +111,37 @@ class PlaneCrossing:
         return np.concatenate([self.position, self.velocity, self.spin])
 
 
+def _mat3_mul(a: tuple, b: tuple) -> tuple[float, ...]:
+    """The 3 x 3 matrix product a b (row-major 9-tuples)."""
+    a0, a1, a2, a3, a4, a5, a6, a7, a8 = a
+    b0, b1, b2, b3, b4, b5, b6, b7, b8 = b
+    return (a0 * b0 + a1 * b3 + a2 * b6, a0 * b1 + a1 * b4 + a2 * b7, a0 * b2 + a1 * b5 + a2 * b8,
+            a3 * b0 + a4 * b3 + a5 * b6, a3 * b1 + a4 * b4 + a5 * b7, a3 * b2 + a4 * b5 + a5 * b8,
+            a6 * b0 + a7 * b3 + a8 * b6, a6 * b1 + a7 * b4 + a8 * b7, a6 * b2 + a7 * b5 + a8 * b8)
+
+
+def _mat3_axpy(x: tuple, h: float, y: tuple) -> tuple[float, ...]:
+    """x + h y for 3 x 3 matrices (row-major 9-tuples)."""
+    x0, x1, x2, x3, x4, x5, x6, x7, x8 = x
+    y0, y1, y2, y3, y4, y5, y6, y7, y8 = y
+    return (x0 + h * y0, x1 + h * y1, x2 + h * y2, x3 + h * y3, x4 + h * y4,
+            x5 + h * y5, x6 + h * y6, x7 + h * y7, x8 + h * y8)
+
+
+def _mat3_rk4(x: tuple, h6: float, k1: tuple, k2: tuple, k3: tuple, k4: tuple) -> tuple:
+    """The RK4 update x + h/6 (k1 + 2 k2 + 2 k3 + k4) of a 3 x 3 matrix (row-major 9-tuples)."""
+    x0, x1, x2, x3, x4, x5, x6, x7, x8 = x
+    return (x0 + h6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0]),
+            x1 + h6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1]),
+            x2 + h6 * (k1[2] + 2 * k2[2] + 2 * k3[2] + k4[2]),
+            x3 + h6 * (k1[3] + 2 * k2[3] + 2 * k3[3] + k4[3]),
+            x4 + h6 * (k1[4] + 2 * k2[4] + 2 * k3[4] + k4[4]),
+            x5 + h6 * (k1[5] + 2 * k2[5] + 2 * k3[5] + k4[5]),
+            x6 + h6 * (k1[6] + 2 * k2[6] + 2 * k3[6] + k4[6]),
+            x7 + h6 * (k1[7] + 2 * k2[7] + 2 * k3[7] + k4[7]),
+            x8 + h6 * (k1[8] + 2 * k2[8] + 2 * k3[8] + k4[8]))
+
+
 class BallModel:
     """Ball flight and table bounce (see the module docstring for the equations)."""
 
@@ -133,18 +164,114 @@ class BallModel:
             -p.gravity - kd * vz + c * (wx * vy - wy * vx),
         )
 
+    def acceleration_jacobian(self, v: tuple, w: tuple) -> tuple[float, ...]:
+        """d(v')/dv = -k (|v| I + v v^T / |v|) + C_L [omega]x, row-major (9 floats).
+
+        ([omega]x is the cross-product matrix, [omega]x u = omega x u; at v = 0 the drag term's
+        derivative is 0.)"""
+        p = self.params
+        vx, vy, vz = v
+        wx, wy, wz = w
+        speed = math.sqrt(vx * vx + vy * vy + vz * vz)
+        k, c = p.drag_k, p.magnus_cl
+        kd = k * speed
+        ks = k / speed if speed > 0.0 else 0.0
+        return (
+            -kd - ks * vx * vx, -ks * vx * vy - c * wz, -ks * vx * vz + c * wy,
+            -ks * vy * vx + c * wz, -kd - ks * vy * vy, -ks * vy * vz - c * wx,
+            -ks * vz * vx - c * wy, -ks * vz * vy + c * wx, -kd - ks * vz * vz,
+        )
+
     def flight_step(self, pos: tuple, vel: tuple, w: tuple, h: float) -> tuple[tuple, tuple]:
-        """One classical Runge-Kutta (RK4) step of the flight ODE, no contact."""
+        """One classical Runge-Kutta (RK4) step of the flight ODE, no contact.
+
+        With a(v) = g - k |v| v + C_L (omega x v) (:meth:`acceleration`, inlined here: this is the
+        model's innermost loop) and the stage velocities
+
+            v1 = v,  v2 = v + h/2 a(v1),  v3 = v + h/2 a(v2),  v4 = v + h a(v3),
+
+        the step is p+ = p + h/6 (v1 + 2 v2 + 2 v3 + v4), v+ = v + h/6 (a1 + 2 a2 + 2 a3 + a4).
+        """
+        p = self.params
+        k, c, g = p.drag_k, p.magnus_cl, p.gravity
+        wx, wy, wz = w
+        px, py, pz = pos
+        vx, vy, vz = vel
+        hh = 0.5 * h
+        # Stage 1: a1 = a(v).
+        kd = k * math.sqrt(vx * vx + vy * vy + vz * vz)
+        ax1 = -kd * vx + c * (wy * vz - wz * vy)
+        ay1 = -kd * vy + c * (wz * vx - wx * vz)
+        az1 = -g - kd * vz + c * (wx * vy - wy * vx)
+        # Stage 2: v2 = v + h/2 a1, a2 = a(v2).
+        x2, y2, z2 = vx + hh * ax1, vy + hh * ay1, vz + hh * az1
+        kd = k * math.sqrt(x2 * x2 + y2 * y2 + z2 * z2)
+        ax2 = -kd * x2 + c * (wy * z2 - wz * y2)
+        ay2 = -kd * y2 + c * (wz * x2 - wx * z2)
+        az2 = -g - kd * z2 + c * (wx * y2 - wy * x2)
+        # Stage 3: v3 = v + h/2 a2, a3 = a(v3).
+        x3, y3, z3 = vx + hh * ax2, vy + hh * ay2, vz + hh * az2
+        kd = k * math.sqrt(x3 * x3 + y3 * y3 + z3 * z3)
+        ax3 = -kd * x3 + c * (wy * z3 - wz * y3)
+        ay3 = -kd * y3 + c * (wz * x3 - wx * z3)
+        az3 = -g - kd * z3 + c * (wx * y3 - wy * x3)
+        # Stage 4: v4 = v + h a3, a4 = a(v4).
+        x4, y4, z4 = vx + h * ax3, vy + h * ay3, vz + h * az3
+        kd = k * math.sqrt(x4 * x4 + y4 * y4 + z4 * z4)
+        ax4 = -kd * x4 + c * (wy * z4 - wz * y4)
+        ay4 = -kd * y4 + c * (wz * x4 - wx * z4)
+        az4 = -g - kd * z4 + c * (wx * y4 - wy * x4)
+        h6 = h / 6.0
+        return (
+            (px + h6 * (vx + 2 * x2 + 2 * x3 + x4),
+             py + h6 * (vy + 2 * y2 + 2 * y3 + y4),
+             pz + h6 * (vz + 2 * z2 + 2 * z3 + z4)),
+            (vx + h6 * (ax1 + 2 * ax2 + 2 * ax3 + ax4),
+             vy + h6 * (ay1 + 2 * ay2 + 2 * ay3 + ay4),
+             vz + h6 * (az1 + 2 * az2 + 2 * az3 + az4)),
+        )
+
+    def flight_step_variational(self, pos: tuple, vel: tuple, w: tuple, h: float,
+                                dp: tuple, dv: tuple) -> tuple[tuple, tuple, tuple, tuple]:
+        """:meth:`flight_step` together with the sensitivities of its result.
+
+        ``dp``, ``dv`` are the 3 x 3 sensitivities (row-major, 9 floats) of ``pos`` and ``vel`` to
+        some three parameters, e.g. the initial velocity. They obey the variational equation
+
+            dp' = dv,    dv' = J(v) dv,    J = d(v')/dv (:meth:`acceleration_jacobian`),
+
+        and RK4 applied to the joint system, with D_i = J(v_i) X_i at the flight step's stage
+        velocities v_i and X1 = dv, X2 = dv + h/2 D1, X3 = dv + h/2 D2, X4 = dv + h D3, gives
+
+            dp+ = dp + h/6 (X1 + 2 X2 + 2 X3 + X4),    dv+ = dv + h/6 (D1 + 2 D2 + 2 D3 + D4),
+
+        which is exactly the derivative of the RK4 step (Runge-Kutta steps commute with
+        differentiation). Returns (new_p, new_v, new_dp, new_dv); new_p, new_v equal
+        :meth:`flight_step`'s to the last bit. Omega is held fixed (no sensitivity to it).
+        """
+        hh = 0.5 * h
         a1 = self.acceleration(vel, w)
-        v2 = tuple(vel[i] + 0.5 * h * a1[i] for i in range(3))
+        v2 = (vel[0] + hh * a1[0], vel[1] + hh * a1[1], vel[2] + hh * a1[2])
         a2 = self.acceleration(v2, w)
-        v3 = tuple(vel[i] + 0.5 * h * a2[i] for i in range(3))
+        v3 = (vel[0] + hh * a2[0], vel[1] + hh * a2[1], vel[2] + hh * a2[2])
         a3 = self.acceleration(v3, w)
-        v4 = tuple(vel[i] + h * a3[i] for i in range(3))
+        v4 = (vel[0] + h * a3[0], vel[1] + h * a3[1], vel[2] + h * a3[2])
         a4 = self.acceleration(v4, w)
-        new_p = tuple(pos[i] + h / 6.0 * (vel[i] + 2 * v2[i] + 2 * v3[i] + v4[i]) for i in range(3))
-        new_v = tuple(vel[i] + h / 6.0 * (a1[i] + 2 * a2[i] + 2 * a3[i] + a4[i]) for i in range(3))
-        return new_p, new_v
+        h6 = h / 6.0
+        new_p = (pos[0] + h6 * (vel[0] + 2 * v2[0] + 2 * v3[0] + v4[0]),
+                 pos[1] + h6 * (vel[1] + 2 * v2[1] + 2 * v3[1] + v4[1]),
+                 pos[2] + h6 * (vel[2] + 2 * v2[2] + 2 * v3[2] + v4[2]))
+        new_v = (vel[0] + h6 * (a1[0] + 2 * a2[0] + 2 * a3[0] + a4[0]),
+                 vel[1] + h6 * (a1[1] + 2 * a2[1] + 2 * a3[1] + a4[1]),
+                 vel[2] + h6 * (a1[2] + 2 * a2[2] + 2 * a3[2] + a4[2]))
+        d1 = _mat3_mul(self.acceleration_jacobian(vel, w), dv)
+        x2 = _mat3_axpy(dv, hh, d1)
+        d2 = _mat3_mul(self.acceleration_jacobian(v2, w), x2)
+        x3 = _mat3_axpy(dv, hh, d2)
+        d3 = _mat3_mul(self.acceleration_jacobian(v3, w), x3)
+        x4 = _mat3_axpy(dv, h, d3)
+        d4 = _mat3_mul(self.acceleration_jacobian(v4, w), x4)
+        return new_p, new_v, _mat3_rk4(dp, h6, dv, x2, x3, x4), _mat3_rk4(dv, h6, d1, d2, d3, d4)
 
     # -- table bounce ---------------------------------------------------------------------------
     def table_restitution(self, impact_speed: float) -> float:
@@ -183,7 +310,7 @@ class BallModel:
     def _advance(self, state, stop, max_time: float):
         """Integrate from ``state`` until ``stop(t, pos, vel)`` changes sign from positive to
         non-positive (an event function), bouncing on the table on the way. Returns the state at
-        the event (located by bisection) or None if the ball reaches the floor (centre below
+        the event (located by :meth:`_locate`) or None if the ball reaches the floor (centre below
         ``radius``) or ``max_time`` passes first."""
         p = self.params
         s = np.asarray(state, dtype=float).reshape(-1)
@@ -221,8 +348,69 @@ class BallModel:
             pos, vel, t = new_p, new_v, t + h
         return None
 
+    #: Bracket width (s) at which :meth:`_locate` stops, and its cap on function evaluations.
+    #: 1e-14 s costs about one evaluation more than 1e-12 s and keeps the estimator's
+    #: finite-difference Jacobian across a bounce (which divides the impact-time error by its
+    #: 1e-6 step) accurate to ~1e-8.
+    LOCATE_TOL = 1e-14
+    LOCATE_MAX_EVALS = 60
+
     def _locate(self, pos, vel, w, h, g) -> float:
-        """Bisection for the sub-step s at which g(s, pos, vel) crosses zero within [0, h]."""
+        """The sub-step s in [0, h] at which g(s, p(s), v(s)) crosses zero, (p(s), v(s)) being the
+        flight step of length s from (pos, vel).
+
+        Regula falsi with the Anderson-Bjoerck correction on a bracket [lo, hi] with
+        g(lo) > 0 >= g(hi): the next point is the secant root
+
+            s = (lo g_hi - hi g_lo) / (g_hi - g_lo),
+
+        and when s replaces the same end as the previous point did, the other end's g is scaled
+        by m = 1 - g(s) / g_replaced (by 1/2 if m <= 0), so that end moves too (superlinear
+        convergence). Points closer than ``LOCATE_TOL / 4`` to an end are moved that far inside,
+        which closes the bracket once the secant root is that accurate, and after four
+        iterations in a row that did not halve the bracket the next point is its midpoint.
+        Stops when the bracket is narrower than ``LOCATE_TOL`` (returning its midpoint, the side
+        convention of bisection) or g(s) is exactly 0 (returning s), or after
+        ``LOCATE_MAX_EVALS`` points (returning the midpoint). If g(0) > 0 >= g(h) does not hold
+        it falls back to :meth:`_bisect`."""
+        lo, hi = 0.0, h
+        g_lo = g(0.0, pos, vel)
+        hp, hv = self.flight_step(pos, vel, w, h)
+        g_hi = g(h, hp, hv)
+        if not g_lo > 0.0 >= g_hi:
+            return self._bisect(pos, vel, w, h, g)
+        tol = self.LOCATE_TOL
+        side = 0  # +1: the last point replaced lo, -1: it replaced hi
+        slow = 0  # iterations in a row that did not halve the bracket
+        for _ in range(self.LOCATE_MAX_EVALS):
+            width = hi - lo
+            if width <= tol:
+                break
+            if slow >= 4:
+                s, slow = 0.5 * (lo + hi), 0
+            else:
+                s = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
+                s = min(max(s, lo + 0.25 * tol), hi - 0.25 * tol)
+            sp, sv = self.flight_step(pos, vel, w, s)
+            g_s = g(s, sp, sv)
+            if g_s > 0.0:
+                if side == 1:
+                    m = 1.0 - g_s / g_lo
+                    g_hi *= m if m > 0.0 else 0.5
+                lo, g_lo, side = s, g_s, 1
+            elif g_s < 0.0:
+                if side == -1:
+                    m = 1.0 - g_s / g_hi
+                    g_lo *= m if m > 0.0 else 0.5
+                hi, g_hi, side = s, g_s, -1
+            else:
+                return s
+            slow = slow + 1 if hi - lo > 0.5 * width else 0
+        return 0.5 * (lo + hi)
+
+    def _bisect(self, pos, vel, w, h, g) -> float:
+        """Bisection for the sub-step s at which g(s, pos, vel) crosses zero within [0, h]: 30
+        halvings keeping g(lo) > 0 (the only use of g(hi) <= 0), then the midpoint."""
         lo, hi = 0.0, h
         for _ in range(30):
             mid = 0.5 * (lo + hi)

@@ -9,7 +9,12 @@ the bounce, so the filter is
 Prediction over ``dt`` (frame to frame)::
 
     x-  = f(x+, dt)                        f = BallModel.predict_time (bounce included)
-    F   = df/dx                            finite differences, column j:
+    F   = df/dx                            in flight: the variational equation, integrated
+                                           with the RK4 steps of f (its exact derivative):
+                                           F = [[I, dp/dv0], [0, dv/dv0]],
+                                           (dv/dv0)' = J(v) dv/dv0,  (dp/dv0)' = dv/dv0,
+                                           J = -k (|v| I + v v^T / |v|)   (omega = 0);
+                                           across a bounce: finite differences, column j:
                                            (f(x + eps e_j, dt) - f(x, dt)) / eps
     P-  = F P+ F^T + Q(dt) [+ Q_bounce]
     Q(dt) = q [[dt^3/3 I, dt^2/2 I], [dt^2/2 I, dt I]]       white-acceleration noise, density q
@@ -60,7 +65,7 @@ class EstimatorConfig:
     init_inflation: float = 2.0
     max_rejections: int = 4
     model_dt: float = 4e-3  # RK4 step of the propagation model (s)
-    fd_eps: float = 1e-6  # finite-difference step of the Jacobian (m, m/s)
+    fd_eps: float = 1e-6  # finite-difference step of the Jacobian across a bounce (m, m/s)
 
     def __post_init__(self):
         if self.init_frames < 3:
@@ -72,37 +77,69 @@ class EstimatorConfig:
         return asdict(self)
 
 
+def _table_impact(model: BallModel, pos: tuple, vel: tuple, w: tuple, h: float,
+                  new_p: tuple, new_v: tuple):
+    """If the flight step of length ``h`` from (pos, vel) to (new_p, new_v) takes the ball onto
+    the table, the impact (th, p, v) just before the bounce (located by ``model._locate``);
+    otherwise None."""
+    contact_z = model.params.table_z + model.params.radius
+    if not (new_p[2] < contact_z <= pos[2] and new_v[2] < 0.0):
+        return None
+    th = model._locate(pos, vel, w, h, lambda _s, q, _v: q[2] - contact_z)
+    hp, hv = model.flight_step(pos, vel, w, th)
+    if not model.over_table(hp[0], hp[1]):
+        return None
+    return th, hp, hv
+
+
 def propagate_exact(model: BallModel, x, duration: float) -> tuple[np.ndarray, bool]:
     """The state (p, v) exactly ``duration`` seconds after ``x`` (spin zero), with the model's
     RK4 flight steps (at most ``model.dt``, the last one shortened to land on ``duration``) and
-    its table bounce at the impact located by bisection. Returns (state, bounced).
+    its table bounce at the impact located by ``model._locate``. Returns (state, bounced).
 
     (``BallModel.predict_time`` ends on the first step boundary at or after ``duration``, up to
     one ``dt`` late, which is too coarse for a 60 Hz filter.)"""
-    p = model.params
     pos, vel = tuple(float(c) for c in x[0:3]), tuple(float(c) for c in x[3:6])
     w = (0.0, 0.0, 0.0)
-    contact_z = p.table_z + p.radius
     t, bounced = 0.0, False
     while duration - t > 1e-12:
         h = min(model.dt, duration - t)
         new_p, new_v = model.flight_step(pos, vel, w, h)
-        if new_p[2] < contact_z <= pos[2] and new_v[2] < 0.0:
-            lo, hi = 0.0, h
-            for _ in range(40):
-                mid = 0.5 * (lo + hi)
-                if model.flight_step(pos, vel, w, mid)[0][2] > contact_z:
-                    lo = mid
-                else:
-                    hi = mid
-            th = 0.5 * (lo + hi)
-            hp, hv = model.flight_step(pos, vel, w, th)
-            if model.over_table(hp[0], hp[1]):
-                hv, w = model.bounce(hv, w)
-                pos, vel, t, bounced = hp, hv, t + th, True
-                continue
+        impact = _table_impact(model, pos, vel, w, h, new_p, new_v)
+        if impact is not None:
+            th, hp, hv = impact
+            hv, w = model.bounce(hv, w)
+            pos, vel, t, bounced = hp, hv, t + th, True
+            continue
         pos, vel, t = new_p, new_v, t + h
     return np.array(pos + vel), bounced
+
+
+_IDENTITY3 = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+
+
+def propagate_flight_jacobian(model: BallModel, x, duration: float
+                              ) -> tuple[np.ndarray, np.ndarray] | None:
+    """``propagate_exact``'s state (the same steps, so the same numbers) and its Jacobian
+    F = df/dx from the variational equation (``BallModel.flight_step_variational``), or None
+    if the table bounce happens within ``duration``.
+
+    Without a bounce the acceleration does not depend on the position, so
+    F = [[I, dp/dv0], [0, dv/dv0]], and the two 3 x 3 blocks start at 0 and I."""
+    pos, vel = tuple(float(c) for c in x[0:3]), tuple(float(c) for c in x[3:6])
+    w = (0.0, 0.0, 0.0)
+    dp, dv = (0.0,) * 9, _IDENTITY3
+    t = 0.0
+    while duration - t > 1e-12:
+        h = min(model.dt, duration - t)
+        new_p, new_v, new_dp, new_dv = model.flight_step_variational(pos, vel, w, h, dp, dv)
+        if _table_impact(model, pos, vel, w, h, new_p, new_v) is not None:
+            return None
+        pos, vel, dp, dv, t = new_p, new_v, new_dp, new_dv, t + h
+    F = np.eye(6)
+    F[0:3, 3:6] = np.reshape(dp, (3, 3))
+    F[3:6, 3:6] = np.reshape(dv, (3, 3))
+    return np.array(pos + vel), F
 
 
 class BallFlightEKF:
@@ -169,8 +206,28 @@ class BallFlightEKF:
         """f(x, dt) with the ball model; also whether the table bounce happened inside dt."""
         return propagate_exact(self.model, x, dt)
 
+    def propagate_with_jacobian(self, x: np.ndarray, dt: float
+                                ) -> tuple[np.ndarray, bool, np.ndarray]:
+        """(f(x, dt), bounced, F): F from the variational equation in flight, from finite
+        differences (:meth:`numerical_jacobian`) when the table bounce happens inside dt."""
+        flight = propagate_flight_jacobian(self.model, x, dt)
+        if flight is not None:
+            return flight[0], False, flight[1]
+        fx, bounced = self.propagate(x, dt)
+        return fx, bounced, self.numerical_jacobian(x, dt, fx)
+
     def jacobian(self, x: np.ndarray, dt: float, fx: np.ndarray | None = None) -> np.ndarray:
-        """Forward-difference Jacobian F = df/dx of the propagation map."""
+        """F = df/dx of the propagation map (see :meth:`propagate_with_jacobian`; ``fx`` is
+        only used by the finite differences across a bounce)."""
+        flight = propagate_flight_jacobian(self.model, x, dt)
+        if flight is not None:
+            return flight[1]
+        return self.numerical_jacobian(x, dt, fx)
+
+    def numerical_jacobian(self, x: np.ndarray, dt: float,
+                           fx: np.ndarray | None = None) -> np.ndarray:
+        """Forward-difference Jacobian F = df/dx of the propagation map, column j
+        (f(x + eps e_j, dt) - f(x, dt)) / eps."""
         if fx is None:
             fx, _ = self.propagate(x, dt)
         eps = self.config.fd_eps
@@ -196,8 +253,7 @@ class BallFlightEKF:
         dt = t - self.t
         if dt <= 0.0:
             return
-        fx, bounced = self.propagate(self.x, dt)
-        F = self.jacobian(self.x, dt, fx)
+        fx, bounced, F = self.propagate_with_jacobian(self.x, dt)
         self.x = fx
         self.P = F @ self.P @ F.T + self.process_noise(dt, bounced)
         self.P = 0.5 * (self.P + self.P.T)

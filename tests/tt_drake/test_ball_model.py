@@ -107,3 +107,58 @@ def test_predict_time_lands_exactly_on_the_requested_time():
         assert out.t == pytest.approx(t, abs=1e-9)
         fine = BallModel(dt=1e-4).predict_time(state, t)
         np.testing.assert_allclose(out.position, fine.position, atol=1e-7)
+
+
+def test_flight_step_variational_is_the_derivative_of_the_rk4_step():
+    # Same state as flight_step to the last bit; sensitivities to the initial velocity equal
+    # central differences of the step (with spin, so the Magnus term of the Jacobian counts).
+    model = BallModel()
+    rng = np.random.default_rng(7)
+    identity, zero = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0), (0.0,) * 9
+    for _ in range(20):
+        pos, vel = tuple(rng.uniform(-2, 2, 3)), tuple(rng.uniform(-8, 8, 3))
+        w, h = tuple(rng.uniform(-200, 200, 3)), rng.uniform(1e-4, 8e-3)
+        new_p, new_v, dp, dv = model.flight_step_variational(pos, vel, w, h, zero, identity)
+        assert (new_p, new_v) == model.flight_step(pos, vel, w, h)
+        fd = np.empty((6, 3))
+        for j in range(3):
+            e = np.eye(3)[j] * 1e-5
+            hi = model.flight_step(pos, tuple(vel + e), w, h)
+            lo = model.flight_step(pos, tuple(vel - e), w, h)
+            fd[:, j] = (np.r_[hi[0], hi[1]] - np.r_[lo[0], lo[1]]) / 2e-5
+        np.testing.assert_allclose(np.r_[np.reshape(dp, (3, 3)), np.reshape(dv, (3, 3))], fd,
+                                   atol=1e-9)
+
+
+def test_locate_finds_the_crossing_to_bisection_accuracy():
+    # The root finder against a 60-halving bisection of the same event, inside [0, h].
+    model = BallModel()
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        pos, vel = (0.0, 0.0, 1.0), tuple(rng.uniform([-1, -8, -3], [1, -3, 3]))
+        w, h = tuple(rng.uniform(-100, 100, 3)), 8e-3
+        plane = rng.uniform(0.02, 0.98) * model.flight_step(pos, vel, w, h)[0][1]
+
+        def g(_s, q, _v, plane=plane):
+            return q[1] - plane
+
+        s = model._locate(pos, vel, w, h, g)
+        lo, hi = 0.0, h
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            if g(mid, *model.flight_step(pos, vel, w, mid)) > 0.0:
+                lo = mid
+            else:
+                hi = mid
+        assert 0.0 <= s <= h
+        assert s == pytest.approx(0.5 * (lo + hi), abs=1e-13)
+
+
+def test_locate_without_a_sign_change_bisects_as_before():
+    model = BallModel()
+    pos, vel, w = (0.0, 0.0, 1.0), (0.0, -5.0, 1.0), (0.0, 0.0, 0.0)
+
+    def g(_s, q, _v):
+        return q[1] + 1.0  # positive over the whole step
+
+    assert model._locate(pos, vel, w, 5e-3, g) == model._bisect(pos, vel, w, 5e-3, g)

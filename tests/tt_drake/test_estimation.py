@@ -106,3 +106,28 @@ def test_gate_rejects_a_gross_outlier_and_state_round_trips():
 def test_crosses_the_hitting_plane_side(flights):
     t, x = flights[0]
     assert x[-1, 1] > PLANES.hitting_y - 0.2
+
+
+def test_variational_jacobian_matches_finite_differences(flights):
+    # In flight F comes from the variational equation. The forward differences it replaces
+    # (eps = 1e-6) are themselves accurate to about eps |d2f/dx2| + 1e-16 |f| / eps ~ 1e-9
+    # relative, so 1e-6 leaves a wide margin, while a wrong drag term would be off by
+    # ~k |v| dt ~ 1e-2. Across a bounce the filter falls back to those finite differences.
+    ekf = BallFlightEKF()
+    dt = 1.0 / RATE
+    n_flight = n_bounce = 0
+    for _, x in flights[:3]:
+        for xk in x:
+            fx, bounced, F = ekf.propagate_with_jacobian(xk, dt)
+            ref_x, ref_bounced = propagate_exact(ekf.model, xk, dt)
+            assert bounced == ref_bounced
+            assert np.array_equal(fx, ref_x)
+            F_fd = ekf.numerical_jacobian(xk, dt, ref_x)
+            if bounced:
+                n_bounce += 1
+                assert np.array_equal(F, F_fd)
+            else:
+                n_flight += 1
+                assert np.linalg.norm(F - F_fd) < 1e-6 * np.linalg.norm(F_fd)
+            assert np.array_equal(ekf.jacobian(xk, dt), F)
+    assert n_flight > 50 and n_bounce >= 3
