@@ -29,6 +29,7 @@ position change it causes is at most ``0.0092 |da| T_b^2`` (the quintic's peak),
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -149,13 +150,13 @@ def blend_start_acceleration(traj: Trajectory, a0, blend_time: float = BLEND_TIM
         return traj
     tb = min(blend_time, traj.duration)
     zero = np.zeros_like(delta)
-    corr = Quintic.fit(0.0, tb, zero, zero, delta, zero, zero, zero)
+    c = Quintic.fit(0.0, tb, zero, zero, delta, zero, zero, zero).coeffs  # (D, 6)
+    k = np.flatnonzero(traj.t <= tb + 1e-12)
+    powers = np.minimum(traj.t[k], tb)[:, None] ** np.arange(6)  # (m, 6): s^0 .. s^5
     q, qd, qdd = traj.q.copy(), traj.qd.copy(), traj.qdd.copy()
-    for k in np.flatnonzero(traj.t <= tb + 1e-12):
-        dq, dv, da = corr.evaluate(float(traj.t[k]))
-        q[k] += dq
-        qd[k] += dv
-        qdd[k] += da
+    q[k] += powers @ c.T
+    qd[k] += (powers[:, :5] * np.arange(1, 6)) @ c[:, 1:].T
+    qdd[k] += (powers[:, :4] * np.array([2.0, 6.0, 12.0, 20.0])) @ c[:, 2:].T
     return Trajectory(traj.t, q, qd, qdd)
 
 
@@ -340,11 +341,17 @@ class ConfigurationModel:
         mean = y.mean(axis=0)
         return cls(CrKR(bandwidths, lam).fit(x, y - mean, costs), mean)
 
-    def predict(self, s) -> tuple[np.ndarray, np.ndarray, float]:
-        """(theta_hit (7), theta_dot_hit (7), variance sigma^2(s)) for one stimulus (6)."""
-        mean, var = self.crkr.predict(np.asarray(s, dtype=float).reshape(1, -1))
+    def predict(self, s, variance: bool = True) -> tuple[np.ndarray, np.ndarray, float]:
+        """(theta_hit (7), theta_dot_hit (7), variance sigma^2(s)) for one stimulus (6). Without
+        ``variance`` (NaN then) only the mean is computed: O(n) instead of O(n^2)."""
+        x = np.asarray(s, dtype=float).reshape(1, -1)
+        if variance:
+            mean, var = self.crkr.predict(x)
+            var = float(var[0])
+        else:
+            mean, var = self.crkr.predict(x, return_var=False), math.nan
         y = mean[0] + self.y_mean
-        return y[:7], y[7:], float(var[0])
+        return y[:7], y[7:], var
 
 
 def save_configuration_model(path, model: ConfigurationModel, meta: dict) -> None:
