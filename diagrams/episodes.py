@@ -28,7 +28,12 @@ from tt_drake.referee_rules import Outcome
 from tt_drake.systems.aerodynamics import add_aerodynamics
 from tt_drake.systems.ball_launcher import BallLauncher
 from tt_drake.systems.referee import Referee
+from tt_drake.systems.wam import add_servo_hold
 from tt_drake.systems.world import World, add_world, make_simulator, set_ball_state
+from tt_drake.wam_params import SERVO_PERIOD
+
+# The players' set-points are held for a servo tick; they evaluate their plans half a tick ahead.
+SETPOINT_LEAD = 0.5 * SERVO_PERIOD
 
 
 class PlayerError(ValueError):
@@ -67,13 +72,12 @@ def _analytical_player(builder: DiagramBuilder, world: World, controller,
     camera, estimator = add_vision(builder, world, scenario)
     config = PlannerConfig(target_x=scenario.referee.target_x, target_y=scenario.referee.target_y)
     player = builder.AddNamedSystem("analytical_player",
-                                    AnalyticalPlayer(StrokePlanner(config=config)))
+                                    AnalyticalPlayer(StrokePlanner(config=config),
+                                                     setpoint_lead=SETPOINT_LEAD))
     builder.Connect(estimator.GetOutputPort("state"), player.GetInputPort("estimated_state"))
     builder.Connect(estimator.GetOutputPort("status"), player.GetInputPort("estimator_status"))
-    builder.Connect(player.GetOutputPort("desired_state"),
-                    controller.get_input_port_desired_state())
-    builder.Connect(player.GetOutputPort("desired_acceleration"),
-                    controller.get_input_port_desired_acceleration())
+    add_servo_hold(builder, player.GetOutputPort("desired_state"),
+                   player.GetOutputPort("desired_acceleration"), controller)
     return [camera]
 
 
@@ -145,7 +149,8 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
         configuration = HittingConfiguration("analytical", planner=StrokePlanner(config=config))
     configuration = builder.AddNamedSystem("hitting_configuration", configuration)
     player = builder.AddNamedSystem("momp_player", MoMPTrajectorySource(
-        learned.get("library"), learned.get("stages"), arm=HittingIK()))
+        learned.get("library"), learned.get("stages"), arm=HittingIK(),
+        setpoint_lead=SETPOINT_LEAD))
     for name in ("p_hit", "v_hit", "t_hit", "valid"):
         builder.Connect(predictor.GetOutputPort(name), configuration.GetInputPort(name))
     for name in ("p_hit", "v_hit", "t_hit"):
@@ -154,10 +159,8 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
         builder.Connect(configuration.GetOutputPort(name), player.GetInputPort(name))
     builder.Connect(configuration.GetOutputPort("valid"),
                     player.GetInputPort("configuration_valid"))
-    builder.Connect(player.GetOutputPort("desired_state"),
-                    controller.get_input_port_desired_state())
-    builder.Connect(player.GetOutputPort("desired_acceleration"),
-                    controller.get_input_port_desired_acceleration())
+    add_servo_hold(builder, player.GetOutputPort("desired_state"),
+                   player.GetOutputPort("desired_acceleration"), controller)
     return [camera]
 
 
@@ -220,11 +223,15 @@ def stroke_summary(stroke) -> dict | None:
 class ServeDiagram:
     """The serve diagram of one scenario and player, built once and reused for every episode."""
 
-    def __init__(self, scenario: Scenario, player: str = "idle", meshcat=None,
+    def __init__(self, scenario: Scenario, player: str | Callable = "idle", meshcat=None,
                  log_ball: bool = False, record: bool = False,
-                 end_when_decided: bool | None = None):
-        if player not in PLAYERS:
+                 end_when_decided: bool | None = None, log_setpoints: bool = False):
+        """``player``: a name in :data:`PLAYERS`, or a function with their signature (tools:
+        ``tt-drake bench`` replays set-points with one). ``log_setpoints``: log the servo holds'
+        outputs (the set-points the controller got) at every tick, for :meth:`setpoints`."""
+        if isinstance(player, str) and player not in PLAYERS:
             raise PlayerError(f"unknown player {player!r}; choose one of {', '.join(PLAYERS)}")
+        add_player = PLAYERS[player] if isinstance(player, str) else player
         self.scenario = scenario
         # The referee ends an episode once the return's outcome is decided, except when the
         # whole stroke is wanted: demonstrations (the return to the awaiting posture is one) and
@@ -248,7 +255,7 @@ class ServeDiagram:
 
             c = scenario.controller
             self.controller = add_wam_controller(builder, plant, world.robot, c.kp, c.ki, c.kd)
-            self.seeded += PLAYERS[player](builder, world, self.controller, scenario)
+            self.seeded += add_player(builder, world, self.controller, scenario)
             # Arm state and commanded torques at the referee's rate (aligned events: no extra
             # integrator stops), for joint-limit and saturation metrics.
             period = 1.0 / scenario.referee_rate
@@ -258,6 +265,14 @@ class ServeDiagram:
             self.torque_logger = builder.AddNamedSystem("torque_logger", VectorLogSink(7, period))
             builder.Connect(self.controller.GetOutputPort("actuation"),
                             self.torque_logger.get_input_port())
+        self.setpoint_logs = []
+        if log_setpoints and builder.HasSubsystemNamed("servo_hold_desired_state"):
+            for name, size in (("desired_state", 14), ("desired_acceleration", 7)):
+                log = builder.AddNamedSystem(f"setpoint_logger_{name}",
+                                             VectorLogSink(size, SERVO_PERIOD))
+                builder.Connect(builder.GetSubsystemByName(f"servo_hold_{name}").get_output_port(),
+                                log.get_input_port())
+                self.setpoint_logs.append(log)
         self.player = None
         for name in ("analytical_player", "momp_player"):
             if builder.HasSubsystemNamed(name):
@@ -319,12 +334,19 @@ class ServeDiagram:
                        stop_when_decided=self.end_when_decided, **kwargs)
 
     def _set_awaiting_posture(self) -> None:
+        """The arm at the awaiting posture, and the servo holds (if any) holding the player's
+        first set-point, so that nothing sees their default zeros before the first tick."""
         if self.world.robot is None:
             return
         from tt_drake.wam_params import AWAITING
 
         plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
         self.world.plant.SetPositions(plant_context, self.world.robot, np.asarray(AWAITING))
+        for name in ("servo_hold_desired_state", "servo_hold_desired_acceleration"):
+            if self.diagram.HasSubsystemNamed(name):
+                hold = self.diagram.GetSubsystemByName(name)
+                hold_context = hold.GetMyMutableContextFromRoot(self.context)
+                hold.SetVectorState(hold_context, hold.get_input_port().Eval(hold_context))
 
     @property
     def library(self):
@@ -411,7 +433,19 @@ class ServeDiagram:
             loggers.append(self.status_logger)
         if self.controller is not None:
             loggers += [self.arm_logger, self.torque_logger]
-        return loggers
+        return loggers + self.setpoint_logs
+
+    def setpoints(self) -> tuple[np.ndarray, np.ndarray]:
+        """The last episode's servo ticks (K,) and the set-points (K, 21: q, q_dot, q_ddot) the
+        servo held from each; needs ``log_setpoints``."""
+        if not self.setpoint_logs:
+            raise PlayerError("set-points are logged only with log_setpoints=True and a player "
+                              "that drives the servo holds")
+        state, accel = (log.FindLog(self.context) for log in self.setpoint_logs)
+        # A log entry at tick k is published before that tick's update: it holds the set-point
+        # of tick k - 1.
+        held = np.vstack([state.data(), accel.data()]).T
+        return state.sample_times()[:-1].copy(), held[1:].copy()
 
 
 def episode_seed(base_seed: int, index: int) -> int:

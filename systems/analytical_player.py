@@ -1,6 +1,7 @@
 """The analytical player (the teacher): a physics-model planner and polynomial stroke stages.
 
-Per camera frame, while the ball comes toward the robot and the hitting stage has not begun, the
+For each new estimate (at the first planning tick after the estimator's update), while the ball
+comes toward the robot and the hitting stage has not begun, the
 :class:`StrokePlanner`
 
 1. predicts the ball's state where it crosses the virtual hitting plane, with the physical model
@@ -34,6 +35,7 @@ The output ports evaluate the stored plan (a quintic per joint): O(1) work per i
 """
 
 import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -228,25 +230,27 @@ class StrokePlanner:
 
 
 class _PlayerState(Immutable):
-    __slots__ = ("plan", "stroke", "committed", "bounce_spin")
+    """``seen``: the time of the estimate last acted on (the player waits for a newer one)."""
+
+    __slots__ = ("plan", "stroke", "committed", "bounce_spin", "seen")
 
     def __init__(self, plan: StagePlan, stroke: Stroke | None = None, committed: bool = False,
-                 bounce_spin: np.ndarray | None = None):
+                 bounce_spin: np.ndarray | None = None, seen: float = -math.inf):
         self.plan, self.stroke, self.committed = plan, stroke, committed
-        self.bounce_spin = bounce_spin
+        self.bounce_spin, self.seen = bounce_spin, seen
 
 
 class AnalyticalPlayer(StagePlanPlayer):
-    def __init__(self, planner: StrokePlanner | None = None, rate: float = 60.0):
-        super().__init__()
+    def __init__(self, planner: StrokePlanner | None = None, rate: float = wp.PLANNING_RATE,
+                 setpoint_lead: float = 0.0):
+        super().__init__(setpoint_lead)
         self.planner = planner or StrokePlanner()
         self._estimate = self.DeclareVectorInputPort("estimated_state", 6)
         self._status = self.DeclareVectorInputPort("estimator_status", 2)
         self._state_index = self.DeclareAbstractState(
             AbstractValue.Make(_PlayerState(self.planner.awaiting_plan())))
-        period = 1.0 / rate
-        # After the estimator's update (offset period / 3) of the same frame.
-        self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.5 * period, self._update)
+        # On the planning ticks: a new estimate is acted on at the first tick after it.
+        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, self._update)
         self.DeclareForcedUnrestrictedUpdateEvent(self._update)
 
     def player_state(self, context) -> _PlayerState:
@@ -264,16 +268,18 @@ class AnalyticalPlayer(StagePlanPlayer):
             state.get_mutable_abstract_state(self._state_index).set_value(new)
             return
         status = self._status.Eval(context)
-        if status[0] < 0.5:
+        seen = float(status[1])
+        if status[0] < 0.5 or not seen > old.seen:
             return
-        prediction = self.planner.predict(self._estimate.Eval(context), float(status[1]),
-                                          old.bounce_spin)
+        old = _PlayerState(old.plan, old.stroke, old.committed, old.bounce_spin, seen)
+        state.get_mutable_abstract_state(self._state_index).set_value(old)
+        prediction = self.planner.predict(self._estimate.Eval(context), seen, old.bounce_spin)
         if prediction is None:
             return
         p_hit, v_hit, t_hit, spin, through_bounce = prediction
         bounce_spin = spin if through_bounce else old.bounce_spin
         if bounce_spin is not old.bounce_spin:
-            old = _PlayerState(old.plan, old.stroke, old.committed, bounce_spin)
+            old = _PlayerState(old.plan, old.stroke, old.committed, bounce_spin, seen)
             state.get_mutable_abstract_state(self._state_index).set_value(old)
         if t_hit - now < 0.05:
             return
@@ -287,4 +293,5 @@ class AnalyticalPlayer(StagePlanPlayer):
             return
         new_plan = self.planner.plan(now, plan, stroke)
         state.get_mutable_abstract_state(self._state_index).set_value(
-            _PlayerState(plan if new_plan is None else new_plan, stroke, False, bounce_spin))
+            _PlayerState(plan if new_plan is None else new_plan, stroke, False, bounce_spin,
+                         seen))

@@ -1,8 +1,9 @@
 """BallFlightEstimator LeafSystem: the EKF of :mod:`tt_drake.estimation` at the camera's rate.
 
-Every camera period (offset a third of a period after the camera's update, so it sees the frame
-delivered at that tick) it reads the camera's ``measurement`` (x, y, z, t_capture, valid) and,
-if the frame is newer than the last one processed, runs one filter step at ``t_capture``:
+At every planning tick (250 Hz, :data:`tt_drake.wam_params.PLANNING_RATE`) it reads the camera's
+``measurement`` (x, y, z, t_capture, valid) and, if the frame is newer than the last one
+processed (so once per 60 Hz frame, at the first tick after it), runs one filter step at
+``t_capture``:
 predict with the ball model (bounce included) and, unless the frame was dropped, gate and fuse the
 position. The complete filter state is the system's discrete state
 (:meth:`BallFlightEKF.to_vector`), so contexts clone and replay exactly.
@@ -21,17 +22,17 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 from tt_drake.estimation import BallFlightEKF, EstimatorConfig
+from tt_drake.wam_params import PLANNING_RATE
 
 
 class BallFlightEstimator(LeafSystem):
-    def __init__(self, config: EstimatorConfig | None = None, rate: float = 60.0):
+    def __init__(self, config: EstimatorConfig | None = None, rate: float = PLANNING_RATE):
         super().__init__()
         self.config = config or EstimatorConfig()
         self._ekf = BallFlightEKF(self.config)  # scratch: loaded from / stored to the state
         self._u = self.DeclareVectorInputPort("measurement", 5)
         self._xd = self.DeclareDiscreteState(self._ekf.to_vector())
-        period = 1.0 / rate
-        self.DeclarePeriodicDiscreteUpdateEvent(period, period / 3.0, self._update)
+        self.DeclarePeriodicDiscreteUpdateEvent(1.0 / rate, 0.0, self._update)
         deps = {self.xd_ticket()}
         self.DeclareVectorOutputPort("state", 6, self._calc_state, prerequisites_of_calc=deps)
         self.DeclareVectorOutputPort("covariance", 36, self._calc_cov, prerequisites_of_calc=deps)
@@ -40,12 +41,11 @@ class BallFlightEstimator(LeafSystem):
     def _update(self, context, discrete_state):
         u = self._u.Eval(context)
         t = float(u[3])
-        if math.isnan(t):
+        x = context.get_discrete_state(self._xd).get_value()
+        if math.isnan(t) or not t > x[-1]:  # no frame yet, or processed (last_frame_t)
             return
         ekf = self._ekf
-        ekf.load_vector(context.get_discrete_state(self._xd).get_value())
-        if not t > ekf.last_frame_t:
-            return
+        ekf.load_vector(x)
         ekf.step(t, np.array(u[0:3]) if u[4] > 0.5 else None)
         discrete_state.set_value(self._xd, ekf.to_vector())
 

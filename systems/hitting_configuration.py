@@ -14,9 +14,10 @@ Two sources, chosen at construction:
 
 Ports: inputs ``p_hit`` (3), ``v_hit`` (3), ``t_hit`` (1, absolute) and ``valid`` (1) from
 :class:`tt_drake.systems.hitting_point_predictor.HittingPointPredictor`; outputs ``theta_hit``
-(7), ``theta_dot_hit`` (7) and ``valid`` (1). It updates once per camera period, a quarter period
-after the predictor, and solves again only when the prediction changed; the outputs copy its
-discrete state ``[theta_hit (7), theta_dot_hit (7), valid, p_hit (3), v_hit (3), t_hit]``.
+(7), ``theta_dot_hit`` (7) and ``valid`` (1). It has no state: the outputs are a function of the
+inputs, cached by Drake until the predictor publishes another prediction, and solved once per
+prediction (the three ports share one solution), so a player reads the configuration of the
+prediction it reads, at the same tick.
 """
 
 import numpy as np
@@ -25,12 +26,12 @@ from pydrake.systems.framework import LeafSystem
 from tt_drake.learned_player import ConfigurationModel
 
 SOURCES = ("crkr", "analytical")
-_N = 7 + 7 + 1 + 7
+_NO_ANSWER = np.zeros(15)
 
 
 class HittingConfiguration(LeafSystem):
     def __init__(self, source: str = "crkr", model: ConfigurationModel | None = None,
-                 planner=None, rate: float = 60.0):
+                 planner=None):
         super().__init__()
         if source not in SOURCES:
             raise ValueError(f"unknown hitting-configuration source {source!r}; "
@@ -46,42 +47,34 @@ class HittingConfiguration(LeafSystem):
         self._v = self.DeclareVectorInputPort("v_hit", 3)
         self._t = self.DeclareVectorInputPort("t_hit", 1)
         self._valid = self.DeclareVectorInputPort("valid", 1)
-        self._xd = self.DeclareDiscreteState(np.zeros(_N))
-        period = 1.0 / rate
-        # The predictor updates at 2/3 of the period; this reads its new output.
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.75 * period, self._update)
-        deps = {self.xd_ticket()}
+        self._memo: tuple = (None, _NO_ANSWER)  # (stimulus, answer): a pure function's cache
+        deps = {self.all_input_ports_ticket()}
         for name, lo, hi in (("theta_hit", 0, 7), ("theta_dot_hit", 7, 14), ("valid", 14, 15)):
             self.DeclareVectorOutputPort(name, hi - lo, self._copy(lo, hi),
                                          prerequisites_of_calc=deps)
 
     def _copy(self, lo, hi):
         def calc(context, output):
-            output.SetFromVector(context.get_discrete_state(self._xd).get_value()[lo:hi])
+            output.SetFromVector(self._answer(context)[lo:hi])
 
         return calc
 
     def solve(self, p_hit, v_hit, t_hit):
         """(theta_hit, theta_dot_hit) or None if the source has no answer (IK failed)."""
         if self.source == "crkr":
-            q, qd, _ = self.model.predict(np.r_[p_hit, v_hit])
+            q, qd, _ = self.model.predict(np.r_[p_hit, v_hit], variance=False)
             return q, qd
         stroke = self.planner.stroke(p_hit, v_hit, t_hit, np.zeros(3), None)
         return None if stroke is None else (stroke.q_hit, stroke.qd_hit)
 
-    def _update(self, context, discrete_state):
+    def _answer(self, context) -> np.ndarray:
+        """``[theta_hit (7), theta_dot_hit (7), valid]`` for the inputs' prediction."""
         if self._valid.Eval(context)[0] < 0.5:
-            return
-        x = context.get_discrete_state(self._xd).get_value()
-        stimulus = np.r_[self._p.Eval(context), self._v.Eval(context), self._t.Eval(context)]
-        if np.array_equal(stimulus, x[15:]):
-            return  # solved (or failed) for this prediction already
-        new = x.copy()
-        new[15:] = stimulus
-        answer = self.solve(stimulus[:3], stimulus[3:6], float(stimulus[6]))
-        if answer is None:
-            new[14] = 0.0
-        else:
-            new[:7], new[7:14] = answer
-            new[14] = 1.0
-        discrete_state.set_value(self._xd, new)
+            return _NO_ANSWER
+        stimulus = (*self._p.Eval(context), *self._v.Eval(context), self._t.Eval(context)[0])
+        if stimulus == self._memo[0]:
+            return self._memo[1]
+        solved = self.solve(np.array(stimulus[:3]), np.array(stimulus[3:6]), stimulus[6])
+        answer = _NO_ANSWER if solved is None else np.r_[solved[0], solved[1], 1.0]
+        self._memo = (stimulus, answer)
+        return answer

@@ -1,9 +1,10 @@
 """HittingPointPredictor LeafSystem: p_hit, v_hit and t_hit from four observations after plane s.
 
-Every camera period (two thirds of a period after the camera's update) it reads the estimator's
-``state`` and ``status``. Each new valid estimate with ``p_y < observation_y`` and ``v_y < 0``
-(past the virtual plane s, moving toward the robot) is collected; a non-qualifying one restarts the
-count. At the fourth consecutive one it makes the **final** prediction, with the GPR
+At every planning tick (250 Hz) it reads the estimator's ``state`` and ``status``; a new estimate
+(once per camera frame) is acted on at the first tick after the estimator's update. Each new
+valid estimate with ``p_y < observation_y`` and ``v_y < 0`` (past the virtual plane s, moving
+toward the robot) is collected; a non-qualifying one restarts the count. At the fourth
+consecutive one it makes the **final** prediction, with the GPR
 (:class:`tt_drake.hitting_point.HittingPointGPR`, features = the four states) or the physical
 model (:class:`tt_drake.hitting_point.PhysicalPredictor`, from the fourth state), and holds it.
 
@@ -34,6 +35,7 @@ from pydrake.systems.framework import LeafSystem
 
 from tt_drake.constants import PLANES
 from tt_drake.hitting_point import N_OBSERVATIONS, HittingPointGPR, PhysicalPredictor
+from tt_drake.wam_params import PLANNING_RATE
 
 _OBS = 2
 _OUT = 2 + 6 * N_OBSERVATIONS
@@ -41,7 +43,7 @@ _OUT = 2 + 6 * N_OBSERVATIONS
 
 class HittingPointPredictor(LeafSystem):
     def __init__(self, gpr: HittingPointGPR | None = None,
-                 physical: PhysicalPredictor | None = None, rate: float = 60.0,
+                 physical: PhysicalPredictor | None = None, rate: float = PLANNING_RATE,
                  observation_y: float = PLANES.observation_y,
                  early: PhysicalPredictor | None = None,
                  early_tolerance: tuple[float, float] = (0.02, 0.01)):
@@ -56,8 +58,7 @@ class HittingPointPredictor(LeafSystem):
         initial = np.zeros(_OUT + 9)
         initial[1] = -math.inf
         self._xd = self.DeclareDiscreteState(initial)
-        period = 1.0 / rate
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 2.0 * period / 3.0, self._update)
+        self.DeclarePeriodicDiscreteUpdateEvent(1.0 / rate, 0.0, self._update)
         deps = {self.xd_ticket()}
         self.DeclareVectorOutputPort("p_hit", 3, self._calc(_OUT, _OUT + 3),
                                      prerequisites_of_calc=deps)

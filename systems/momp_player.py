@@ -1,6 +1,6 @@
 """MoMPTrajectorySource LeafSystem: the learned player's stage machine (paper sections III-A, C).
 
-Per camera frame (after the predictor and the hitting configuration have updated), until the
+At the first planning tick (250 Hz) after the predictor publishes a new prediction, until the
 hitting stage has begun, it reads the predicted stimulus x = (p_hit, v_hit), the hitting time
 t_hit and the hitting configuration (theta_hit, theta_dot_hit) and, when they are new (the hitting
 point moved more than ``replan_position`` or t_hit more than ``replan_time``, or theta changed),
@@ -87,11 +87,14 @@ class MoMPConfig:
 
 
 class _State(Immutable):
-    __slots__ = ("plan", "stroke", "committed")
+    """``seen``: the prediction (t_hit, p_hit) last acted on; the player does nothing more until
+    the predictor publishes another."""
+
+    __slots__ = ("plan", "stroke", "committed", "seen")
 
     def __init__(self, plan: StagePlan, stroke: MoMPStroke | None = None,
-                 committed: bool = False):
-        self.plan, self.stroke, self.committed = plan, stroke, committed
+                 committed: bool = False, seen: tuple | None = None):
+        self.plan, self.stroke, self.committed, self.seen = plan, stroke, committed, seen
 
 
 def joint_limits() -> JointLimits:
@@ -103,8 +106,9 @@ def joint_limits() -> JointLimits:
 
 class MoMPTrajectorySource(StagePlanPlayer):
     def __init__(self, library: MotorPrimitiveLibrary | None, stages: dict | None,
-                 config: MoMPConfig | None = None, rate: float = 60.0, q_await=None, arm=None):
-        super().__init__()
+                 config: MoMPConfig | None = None, rate: float = wp.PLANNING_RATE, q_await=None,
+                 arm=None, setpoint_lead: float = 0.0):
+        super().__init__(setpoint_lead)
         self.library, self.stages, self.arm = library, stages, arm
         self.config = config or MoMPConfig()
         self.limits = joint_limits()
@@ -118,9 +122,8 @@ class MoMPTrajectorySource(StagePlanPlayer):
         self._qd_hit = self.DeclareVectorInputPort("theta_dot_hit", 7)
         self._valid = self.DeclareVectorInputPort("configuration_valid", 1)
         self._index = self.DeclareAbstractState(AbstractValue.Make(_State(self.awaiting_plan())))
-        period = 1.0 / rate
-        # After the predictor (2/3 period) and HittingConfiguration (3/4 period) of the frame.
-        self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.875 * period, self._update)
+        # On the planning ticks: a new prediction is acted on at the first tick after it.
+        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, self._update)
         self.DeclareForcedUnrestrictedUpdateEvent(self._update)
 
     def awaiting_plan(self, t: float = 0.0) -> StagePlan:
@@ -153,8 +156,14 @@ class MoMPTrajectorySource(StagePlanPlayer):
             return
         if self._valid.Eval(context)[0] < 0.5:
             return
-        p_hit, v_hit = self._p.Eval(context), self._v.Eval(context)
-        t_hit = float(self._t.Eval(context)[0])
+        p_hit, t_hit = self._p.Eval(context), float(self._t.Eval(context)[0])
+        seen = (t_hit, float(p_hit[0]), float(p_hit[1]), float(p_hit[2]))
+        if seen == old.seen:
+            return
+        # From here on this prediction has been acted on, whether or not a plan comes of it.
+        abstract = state.get_mutable_abstract_state(self._index)
+        abstract.set_value(_State(plan, old.stroke, False, seen))
+        v_hit = self._v.Eval(context)
         q_hit, qd_hit = self._q_hit.Eval(context), self._qd_hit.Eval(context)
         if t_hit - now < self.config.min_time_to_hit:
             return
@@ -174,8 +183,8 @@ class MoMPTrajectorySource(StagePlanPlayer):
         replans = 1 if old.stroke is None else old.stroke.replans + 1
         stroke = MoMPStroke(x, t_hit, np.array(q_hit), np.array(qd_hit), idx, nu, replans,
                             fallback)
-        state.get_mutable_abstract_state(self._index).set_value(
-            _State(StagePlan(plan.truncated(now).segments + new.segments), stroke))
+        abstract.set_value(_State(StagePlan(plan.truncated(now).segments + new.segments), stroke,
+                                  False, seen))
 
     def _plan_primitives(self, now, plan, x, t_hit, q_hit, qd_hit, preparing):
         """The first motor-primitive plan inside the joint limits (hitting-stage durations tried

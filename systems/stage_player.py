@@ -7,8 +7,11 @@ A player keeps, in its abstract state, an object with ``plan`` (a
 InverseDynamicsController, ``stage`` (1: index into :data:`tt_drake.stages.STAGES`), ``stroke``
 (abstract) and ``predicted_hit`` (4: where the stroke meets the ball, and a valid flag).
 
-The two desired-value ports are evaluated at every integrator stage; they share one plan
-evaluation per (plan, time), so each step costs one polynomial evaluation (DESIGN.md: O(1)).
+The two desired-value ports share one plan evaluation per (plan, time), an O(1) polynomial
+evaluation (DESIGN.md). In the serve diagram they feed the controller through the servo's
+zero-order holds (:func:`tt_drake.systems.wam.add_servo_hold`), so they are evaluated once per
+servo tick, at ``t + setpoint_lead`` (half a tick: the held value is the plan at the middle of
+its tick).
 """
 
 from pydrake.common.value import AbstractValue
@@ -18,9 +21,10 @@ from tt_drake.stages import STAGES
 
 
 class StagePlanPlayer(LeafSystem):
-    def __init__(self):
+    def __init__(self, setpoint_lead: float = 0.0):
         super().__init__()
         self._memo = None
+        self.setpoint_lead = float(setpoint_lead)
         self.DeclareVectorOutputPort("desired_state", BasicVector(14), self._calc_state)
         self.DeclareVectorOutputPort("desired_acceleration", BasicVector(7), self._calc_accel)
         self.DeclareVectorOutputPort("stage", BasicVector(1), self._calc_stage)
@@ -38,9 +42,10 @@ class StagePlanPlayer(LeafSystem):
         return stroke.p_hit
 
     def _evaluate(self, context):
-        """(q, q_dot, q_ddot) of the stored plan now, evaluated once per (plan, time)."""
+        """(q, q_dot, q_ddot) of the stored plan at ``t + setpoint_lead``, evaluated once per
+        (plan, time)."""
         plan = self.player_state(context).plan
-        t = context.get_time()
+        t = context.get_time() + self.setpoint_lead
         memo = self._memo
         if memo is not None and memo[0] is plan and memo[1] == t:
             return memo[2]

@@ -130,3 +130,31 @@ def add_wam_controller(builder: DiagramBuilder, plant: MultibodyPlant,
     builder.Connect(controller.GetOutputPort("actuation"),
                     plant.get_actuation_input_port(instance))
     return controller
+
+
+def add_servo_hold(builder: DiagramBuilder, desired_state, desired_acceleration,
+                   controller: InverseDynamicsController | None,
+                   period: float = wp.SERVO_PERIOD) -> tuple:
+    """Feed a player's ``desired_state`` (14) and ``desired_acceleration`` (7) output ports to
+    ``controller`` (if not None) through zero-order holds sampled every servo ``period`` (ticks
+    at k * period); returns the two holds (state, acceleration).
+
+    The WAM takes one set-point per servo tick (facts.md section 2), so the controller holds it
+    in between. Holding also keeps a Python player out of the integrator's derivative evaluations
+    (three per RK3 step): the hold samples it once per tick and its output is cached. A player
+    feeding a hold evaluates its plan half a period ahead (``setpoint_lead = period / 2``) so that
+    the held value is the plan at the middle of its tick: no average lag.
+    """
+    from pydrake.systems.primitives import ZeroOrderHold
+
+    holds = []
+    for name, port, size in (("desired_state", desired_state, 14),
+                             ("desired_acceleration", desired_acceleration, 7)):
+        hold = builder.AddNamedSystem(f"servo_hold_{name}", ZeroOrderHold(period, size))
+        builder.Connect(port, hold.get_input_port())
+        holds.append(hold)
+    if controller is not None:
+        builder.Connect(holds[0].get_output_port(), controller.get_input_port_desired_state())
+        builder.Connect(holds[1].get_output_port(),
+                        controller.get_input_port_desired_acceleration())
+    return tuple(holds)

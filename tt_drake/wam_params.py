@@ -83,6 +83,16 @@ EFFORT_LIMIT: tuple[float, ...] = (75.0, 125.0, 39.0, 30.0, 3.0, 4.0, 1.0)
 # The lab's joint acceleration bound (facts.md section 2), rad/s^2; for planners.
 ACCELERATION_LIMIT: tuple[float, ...] = (200.0,) * NUM_JOINTS
 
+# The robot's servo clock (facts.md section 2: "Servo rate 500 Hz"): the controller's set-point is
+# held for one tick (tt_drake.systems.wam.add_servo_hold). The vision systems downstream of the
+# 60 Hz camera and the players look for new data every other tick (PLANNING_RATE): a new frame is
+# acted on within 4 ms per stage, with half the Python calls of every tick (measured: 5-10 % of a
+# learned player's episode), and the two clocks' event times coincide exactly in floating point
+# (the planning period is exactly twice the servo's), so the integrator takes no extra steps.
+SERVO_RATE = 500.0  # Hz
+SERVO_PERIOD = 1.0 / SERVO_RATE  # s
+PLANNING_RATE = 0.5 * SERVO_RATE  # Hz
+
 
 @dataclass(frozen=True)
 class LinkInertia:

@@ -1,0 +1,117 @@
+"""The servo clock: set-points held for a tick, and the hitting configuration solved once per
+prediction."""
+
+import numpy as np
+import pytest
+from pydrake.common.value import AbstractValue
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+
+from tt_drake import wam_params as wp
+from tt_drake.stages import HITTING, Quintic, StagePlan
+from tt_drake.systems.hitting_configuration import HittingConfiguration
+from tt_drake.systems.immutable import Immutable
+from tt_drake.systems.stage_player import StagePlanPlayer
+from tt_drake.systems.wam import add_servo_hold
+
+H = wp.SERVO_PERIOD
+Q0 = np.asarray(wp.AWAITING, dtype=float)
+# A fast move: 1 rad in 0.2 s on every joint (peak speed ~9.4 rad/s).
+PLAN = StagePlan([(HITTING, Quintic.fit(0.0, 0.2, Q0, np.zeros(7), np.zeros(7), Q0 + 1.0,
+                                        np.zeros(7), np.zeros(7)))])
+
+
+class _Fixed(Immutable):
+    __slots__ = ("plan", "stroke")
+
+    def __init__(self, plan):
+        self.plan, self.stroke = plan, None
+
+
+class FixedPlanPlayer(StagePlanPlayer):
+    def __init__(self, setpoint_lead):
+        super().__init__(setpoint_lead)
+        self._index = self.DeclareAbstractState(AbstractValue.Make(_Fixed(PLAN)))
+
+    def player_state(self, context):
+        return context.get_abstract_state(self._index).get_value()
+
+
+def held_setpoints(lead, times):
+    builder = DiagramBuilder()
+    player = builder.AddSystem(FixedPlanPlayer(lead))
+    state_hold, accel_hold = add_servo_hold(builder, player.GetOutputPort("desired_state"),
+                                            player.GetOutputPort("desired_acceleration"), None)
+    builder.ExportOutput(state_hold.get_output_port(), "q")
+    builder.ExportOutput(accel_hold.get_output_port(), "a")
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    context = simulator.get_mutable_context()
+    simulator.Initialize()
+    out = []
+    for t in times:
+        simulator.AdvanceTo(t)
+        out.append((diagram.GetOutputPort("q").Eval(context).copy(),
+                    diagram.GetOutputPort("a").Eval(context).copy()))
+    return out
+
+
+def test_held_setpoint_is_the_plan_at_the_middle_of_its_tick():
+    # Times inside ticks (never on a tick), from the first tick at t = 0 on.
+    times = np.arange(0.0, 0.2, H) + 0.37 * H
+    held = held_setpoints(0.5 * H, times)
+    for t, (x, a) in zip(times, held, strict=True):
+        tick = np.floor(t / H) * H
+        q, v, acc = PLAN.evaluate(tick + 0.5 * H)
+        np.testing.assert_allclose(x, np.r_[q, v], atol=1e-12)
+        np.testing.assert_allclose(a, acc, atol=1e-12)
+
+
+def test_half_tick_lead_removes_the_holds_lag():
+    """Over a tick the held position differs from the plan by v (t_mid - t) + O(h^2): zero on
+    average with the half-tick lead, v h / 2 (a lag) without it."""
+    times = np.arange(0.0, 0.2, H / 8.0) + H / 16.0  # 8 samples centred in each tick
+    plan_q = np.array([PLAN.evaluate(t)[0][0] for t in times])
+    plan_v = np.array([PLAN.evaluate(t)[1][0] for t in times])
+    for lead, expected_lag in ((0.5 * H, 0.0), (0.0, 0.5 * H)):
+        held_q = np.array([x[0] for x, _ in held_setpoints(lead, times)])
+        moving = plan_v > 1.0
+        lag = np.mean((plan_q - held_q)[moving] / plan_v[moving])  # seconds behind the plan
+        assert lag == pytest.approx(expected_lag, abs=0.02 * H)
+
+
+class CountingModel:
+    """A stand-in ConfigurationModel: theta = (s[:3], s[:3] + 1, 0), theta_dot = 2 s[:3] ..."""
+
+    def __init__(self):
+        self.calls = 0
+
+    def predict(self, s, variance=True):
+        self.calls += 1
+        s = np.asarray(s, dtype=float)
+        q = np.r_[s[:3], s[:3] + 1.0, 0.0]
+        return q, 2.0 * q, float("nan")
+
+
+def test_hitting_configuration_is_solved_once_per_prediction():
+    model = CountingModel()
+    config = HittingConfiguration("crkr", model=model)
+    context = config.CreateDefaultContext()
+
+    def predict(p, v, t, valid):
+        config.GetInputPort("p_hit").FixValue(context, p)
+        config.GetInputPort("v_hit").FixValue(context, v)
+        config.GetInputPort("t_hit").FixValue(context, [t])
+        config.GetInputPort("valid").FixValue(context, [valid])
+        return [config.GetOutputPort(n).Eval(context).copy()
+                for n in ("theta_hit", "theta_dot_hit", "valid")]
+
+    q, qd, valid = predict([0.1, -1.9, 1.0], [0.5, -4.0, 1.0], 0.6, 0.0)
+    assert valid[0] == 0.0 and model.calls == 0
+    for _ in range(3):  # the same prediction read again (a tick later): no new solve
+        q, qd, valid = predict([0.1, -1.9, 1.0], [0.5, -4.0, 1.0], 0.6, 1.0)
+    assert model.calls == 1 and valid[0] == 1.0
+    np.testing.assert_allclose(q, [0.1, -1.9, 1.0, 1.1, -0.9, 2.0, 0.0])
+    np.testing.assert_allclose(qd, 2.0 * q)
+    q, _, _ = predict([0.2, -1.9, 1.0], [0.5, -4.0, 1.0], 0.6, 1.0)
+    assert model.calls == 2 and q[0] == pytest.approx(0.2)
