@@ -1,18 +1,25 @@
 """``tt-drake bench``: wall time per serve episode and real-time factor of the project's serve
-diagram, against a reference diagram measured in the same run.
+diagram, against diagrams measured in the same run.
 
-The reference has the same plant, contact model and integrator, and the arm under the same
-InverseDynamicsController, but follows a C++ ``TrajectorySource`` and has no Python system (no
-aerodynamics, launcher or referee): the ratio is what our Python systems cost. Both replay the
-same serves for the same simulated durations (those the project's episodes ended at); the
-launcher's serve sampling is timed separately.
+- The C++ reference has the same plant, contact model and integrator, and the arm under the same
+  InverseDynamicsController, but follows a C++ ``TrajectorySource`` swing and has no Python
+  system (no aerodynamics, launcher or referee). It runs the same serves for the same simulated
+  durations (those the project's episodes ended at); the launcher's serve sampling is timed
+  separately.
+- For a player other than idle: the idle diagram on the same serves (the arm holds still, so
+  the ball flies past and the episode ends sooner), and the **replay**: the same serve diagram
+  (world, aerodynamics, launcher, referee, controller, servo holds) with the player and its
+  vision systems replaced by Drake's C++ ``TrajectorySource`` replaying the set-points the
+  player's episode gave the servo. It simulates the same physics, so replay / idle is what the
+  returned ball costs the simulation itself (a longer episode, more contacts, a spinning ball)
+  and project / replay is what the player's systems cost.
 """
 
 import time
 
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import TrajectorySource
+from pydrake.systems.primitives import Demultiplexer, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
@@ -90,8 +97,8 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
         "ratio_project_to_reference": project_wall / reference_wall,
     }
     if player != "idle":
-        # The same serves at the idle diagram: what the player's systems cost. A returned ball
-        # flies on to the far floor, so per serve the player's episodes also simulate longer.
+        # The same serves at the idle diagram. A returned ball flies on to the far court, so per
+        # serve the player's episodes also simulate longer.
         idle_wall, idle_durations = _time_episodes(ServeDiagram(scenario, "idle"), seeds)
         idle_sim = float(np.mean(idle_durations))
         result["idle"] = {"wall_per_serve": idle_wall, "mean_episode_sim_time": idle_sim,
@@ -99,6 +106,11 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
         result["ratio_to_idle_per_serve"] = project_wall / idle_wall
         result["ratio_to_idle_per_simulated_second"] = (
             (project_wall / mean_duration) / (idle_wall / idle_sim))
+        replay_wall, replay_durations = _time_replay(scenario, player, seeds)
+        result["replay"] = {"wall_per_serve": replay_wall,
+                            "mean_episode_sim_time": float(np.mean(replay_durations))}
+        result["ratio_to_replay_per_serve"] = project_wall / replay_wall
+        result["replay_to_idle_per_serve"] = replay_wall / idle_wall
     try:
         from tt_drake.benchmarks import bench_momp_planning
     except ImportError:
@@ -106,6 +118,43 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
     else:
         result["momp_planning"] = bench_momp_planning()
     return result
+
+
+def _replay_player(builder: DiagramBuilder, world, controller, scenario: Scenario) -> list:
+    """Recorded set-points (q, q_dot, q_ddot) from a C++ ``TrajectorySource`` through the servo
+    holds; the trajectory is set per episode (:func:`_time_replay`)."""
+    from tt_drake.systems.wam import add_servo_hold
+    from tt_drake.wam_params import AWAITING
+
+    rest = np.r_[AWAITING, np.zeros(14)]
+    source = builder.AddNamedSystem("setpoint_replay", TrajectorySource(
+        PiecewisePolynomial.FirstOrderHold([0.0, 1.0], np.column_stack([rest, rest]))))
+    split = builder.AddNamedSystem("setpoint_split", Demultiplexer([14, 7]))
+    builder.Connect(source.get_output_port(), split.get_input_port())
+    add_servo_hold(builder, split.get_output_port(0), split.get_output_port(1), controller)
+    return []
+
+
+def _time_replay(scenario: Scenario, player: str, seeds: list[int]) -> tuple[float, list[float]]:
+    """Record the set-points of ``player``'s episodes (untimed), then time the replay diagram on
+    the same serves: wall time per episode (after a warm-up) and the episodes' durations."""
+    recorder = ServeDiagram(scenario, player, log_setpoints=True)
+    trajectories = []
+    for s in seeds:
+        recorder.run(s)
+        ticks, setpoints = recorder.setpoints()
+        trajectories.append(PiecewisePolynomial.FirstOrderHold(ticks, setpoints.T))
+    replay = ServeDiagram(scenario, _replay_player)
+    source = replay.diagram.GetSubsystemByName("setpoint_replay")
+    source.UpdateTrajectory(trajectories[0])
+    replay.run(seeds[0])  # warm-up
+    wall, durations = 0.0, []
+    for s, trajectory in zip(seeds, trajectories, strict=True):
+        source.UpdateTrajectory(trajectory)
+        t0 = time.perf_counter()
+        durations.append(replay.run(s).duration)
+        wall += time.perf_counter() - t0
+    return wall / len(seeds), durations
 
 
 def _time_episodes(diagram: ServeDiagram, seeds: list[int]) -> tuple[float, list[float]]:
@@ -134,6 +183,13 @@ def format_bench(r: dict) -> str:
                      f"{r['idle']['mean_episode_sim_time']:.2f} s)")
         lines.append(f"  ratio {r['player']}/idle: {r['ratio_to_idle_per_serve']:.2f} per serve, "
                      f"{r['ratio_to_idle_per_simulated_second']:.2f} per simulated second")
+    if "replay" in r:
+        lines.append(f"  set-point replay   {1e3 * r['replay']['wall_per_serve']:8.1f} ms/serve   "
+                     f"(the same physics, no player systems; mean simulated "
+                     f"{r['replay']['mean_episode_sim_time']:.2f} s)")
+        lines.append(f"  ratio {r['player']}/replay: {r['ratio_to_replay_per_serve']:.2f} per "
+                     f"serve (the player's systems); replay/idle: "
+                     f"{r['replay_to_idle_per_serve']:.2f} (the returned ball's physics)")
     if "momp_planning" in r:
         lines.append(f"  MoMP planning: {r['momp_planning']}")
     return "\n".join(lines)
