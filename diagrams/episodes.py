@@ -134,9 +134,14 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
 
     learned = load_learned_player(scenario, primitives)
     camera, estimator = add_vision(builder, world, scenario)
+    # Early predictions start the MoMP player's preparation stage at detection (paper section
+    # III-C). The crkr player (the teacher's quintic stages, section III-B.2) waits for the final
+    # prediction: with ~0.5 s left at detection its stages leave no room for a preparation, so
+    # it began the hitting stage on the first early prediction and stayed committed to it
+    # (1,300 serves, seed 21: 97.9 % legal returns instead of 100 %, every miss a single plan).
     # dt = 5 ms: the same crossing as 2 ms to 1e-8 m on a serve, at 2.5x fewer RK4 steps.
     early = (PhysicalPredictor(CompliantBounceBallModel(dt=5e-3))
-             if scenario.learned.early_prediction else None)
+             if primitives and scenario.learned.early_prediction else None)
     predictor = builder.AddNamedSystem("hitting_point_predictor",
                                        HittingPointPredictor(gpr=learned["gpr"], early=early))
     builder.Connect(estimator.GetOutputPort("state"), predictor.GetInputPort("state"))

@@ -35,8 +35,9 @@ class LearnedPlayerConfig:
     the physical-model predictor), and where the hitting configuration comes from: ``crkr`` or
     ``analytical`` (the teacher's IK on the predicted stimulus). With ``early_prediction`` the
     physical model predicts from every estimate of the approaching ball until the predictor's
-    final prediction, so the preparation stage starts when the ball is detected (paper section
-    III-C); without, the player waits for the final prediction."""
+    final prediction, so the momp player's preparation stage starts when the ball is detected
+    (paper section III-C); without, it waits for the final prediction, as the ``crkr`` player
+    always does."""
 
     library: str = ""
     crkr: str = ""

@@ -103,3 +103,21 @@ def test_momp_player_trained_on_60_teacher_serves_returns_default_serves(tmp_pat
     summary = run_serves(scenario, "momp", 40, seed=123, progress=False, workers=2)["summary"]
     assert summary["return_rate"] >= 0.67
     assert summary["robot_table_contacts"] == 0
+
+
+def test_only_the_momp_player_acts_on_early_predictions(artefacts):
+    """The momp player prepares from the first estimate of an approaching ball; the crkr player
+    (the teacher's stages) plans once, on the predictor's final prediction."""
+    from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
+
+    _, library, crkr = artefacts
+    scenario = load_scenario()
+    scenario.learned.library, scenario.learned.crkr = str(library), str(crkr)
+    for player, early in (("momp", True), ("crkr", False)):
+        diagram = ServeDiagram(scenario, player)
+        predictor = diagram.diagram.GetSubsystemByName("hitting_point_predictor")
+        assert (predictor.early is not None) == early
+    result = diagram.run(episode_seed(4, 0))  # the crkr player
+    final = predictor.GetOutputPort("p_hit").Eval(predictor.GetMyContextFromRoot(diagram.context))
+    assert result.stroke["replans"] == 1
+    np.testing.assert_allclose(result.stroke["stimulus"][:3], final, atol=1e-5)
