@@ -325,22 +325,19 @@ class BallModel:
         g0 = stop(t, pos, vel)
         if g0 <= 0.0:
             return None
-        contact_z = p.table_z + p.radius
         while t < max_time:
             h = min(self.dt, max_time - t)
             new_p, new_v = self.flight_step(pos, vel, w, h)
-            # Table impact inside this step: locate it and bounce.
-            if new_p[2] < contact_z <= pos[2] and new_v[2] < 0.0:
-                th = self._locate(pos, vel, w, h, lambda _s, q, _v: q[2] - contact_z)
-                hp, hv = self.flight_step(pos, vel, w, th)
-                if self.over_table(hp[0], hp[1]):
-                    # Check the stop event before the impact first.
-                    if stop(t + th, hp, hv) <= 0.0:
-                        return self._finish(t, pos, vel, w, h, stop, bounces)
-                    bounces.append(Bounce(t + th, hp))
-                    hv, w = self.bounce(hv, w)
-                    pos, vel, t = hp, hv, t + th
-                    continue
+            impact = self.table_impact(pos, vel, w, h, new_p, new_v)
+            if impact is not None:
+                th, hp, hv = impact
+                # Check the stop event before the impact first.
+                if stop(t + th, hp, hv) <= 0.0:
+                    return self._finish(t, pos, vel, w, h, stop, bounces)
+                bounces.append(Bounce(t + th, hp))
+                hv, w = self.bounce(hv, w)
+                pos, vel, t = hp, hv, t + th
+                continue
             if stop(t + h, new_p, new_v) <= 0.0:
                 return self._finish(t, pos, vel, w, h, stop, bounces)
             if new_p[2] < p.radius:
@@ -354,6 +351,20 @@ class BallModel:
     #: 1e-6 step) accurate to ~1e-8.
     LOCATE_TOL = 1e-14
     LOCATE_MAX_EVALS = 60
+
+    def table_impact(self, pos: tuple, vel: tuple, w: tuple, h: float, new_p: tuple,
+                     new_v: tuple) -> tuple[float, tuple, tuple] | None:
+        """If the flight step of length ``h`` from (pos, vel) to (new_p, new_v) takes the ball's
+        centre down through ``table_z + radius`` over the table, the impact: (sub-step th, p, v)
+        just before the bounce (th located by :meth:`_locate`); otherwise None."""
+        contact_z = self.params.table_z + self.params.radius
+        if not (new_p[2] < contact_z <= pos[2] and new_v[2] < 0.0):
+            return None
+        th = self._locate(pos, vel, w, h, lambda _s, q, _v: q[2] - contact_z)
+        hp, hv = self.flight_step(pos, vel, w, th)
+        if not self.over_table(hp[0], hp[1]):
+            return None
+        return th, hp, hv
 
     def _locate(self, pos, vel, w, h, g) -> float:
         """The sub-step s in [0, h] at which g(s, p(s), v(s)) crosses zero, (p(s), v(s)) being the

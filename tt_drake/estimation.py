@@ -77,25 +77,10 @@ class EstimatorConfig:
         return asdict(self)
 
 
-def _table_impact(model: BallModel, pos: tuple, vel: tuple, w: tuple, h: float,
-                  new_p: tuple, new_v: tuple):
-    """If the flight step of length ``h`` from (pos, vel) to (new_p, new_v) takes the ball onto
-    the table, the impact (th, p, v) just before the bounce (located by ``model._locate``);
-    otherwise None."""
-    contact_z = model.params.table_z + model.params.radius
-    if not (new_p[2] < contact_z <= pos[2] and new_v[2] < 0.0):
-        return None
-    th = model._locate(pos, vel, w, h, lambda _s, q, _v: q[2] - contact_z)
-    hp, hv = model.flight_step(pos, vel, w, th)
-    if not model.over_table(hp[0], hp[1]):
-        return None
-    return th, hp, hv
-
-
 def propagate_exact(model: BallModel, x, duration: float) -> tuple[np.ndarray, bool]:
     """The state (p, v) exactly ``duration`` seconds after ``x`` (spin zero), with the model's
     RK4 flight steps (at most ``model.dt``, the last one shortened to land on ``duration``) and
-    its table bounce at the impact located by ``model._locate``. Returns (state, bounced).
+    its table bounce at the impact (``BallModel.table_impact``). Returns (state, bounced).
 
     (``BallModel.predict_time`` ends on the first step boundary at or after ``duration``, up to
     one ``dt`` late, which is too coarse for a 60 Hz filter.)"""
@@ -105,7 +90,7 @@ def propagate_exact(model: BallModel, x, duration: float) -> tuple[np.ndarray, b
     while duration - t > 1e-12:
         h = min(model.dt, duration - t)
         new_p, new_v = model.flight_step(pos, vel, w, h)
-        impact = _table_impact(model, pos, vel, w, h, new_p, new_v)
+        impact = model.table_impact(pos, vel, w, h, new_p, new_v)
         if impact is not None:
             th, hp, hv = impact
             hv, w = model.bounce(hv, w)
@@ -133,7 +118,7 @@ def propagate_flight_jacobian(model: BallModel, x, duration: float
     while duration - t > 1e-12:
         h = min(model.dt, duration - t)
         new_p, new_v, new_dp, new_dv = model.flight_step_variational(pos, vel, w, h, dp, dv)
-        if _table_impact(model, pos, vel, w, h, new_p, new_v) is not None:
+        if model.table_impact(pos, vel, w, h, new_p, new_v) is not None:
             return None
         pos, vel, dp, dv, t = new_p, new_v, new_dp, new_dv, t + h
     F = np.eye(6)
@@ -216,13 +201,9 @@ class BallFlightEKF:
         fx, bounced = self.propagate(x, dt)
         return fx, bounced, self.numerical_jacobian(x, dt, fx)
 
-    def jacobian(self, x: np.ndarray, dt: float, fx: np.ndarray | None = None) -> np.ndarray:
-        """F = df/dx of the propagation map (see :meth:`propagate_with_jacobian`; ``fx`` is
-        only used by the finite differences across a bounce)."""
-        flight = propagate_flight_jacobian(self.model, x, dt)
-        if flight is not None:
-            return flight[1]
-        return self.numerical_jacobian(x, dt, fx)
+    def jacobian(self, x: np.ndarray, dt: float) -> np.ndarray:
+        """F = df/dx of the propagation map (see :meth:`propagate_with_jacobian`)."""
+        return self.propagate_with_jacobian(x, dt)[2]
 
     def numerical_jacobian(self, x: np.ndarray, dt: float,
                            fx: np.ndarray | None = None) -> np.ndarray:
