@@ -26,7 +26,7 @@ from tt_drake.serves import Serve, ServeSampler
 class LauncherConfig:
     distribution: str = "default"
     spin_max: float = 0.0  # rad/s per component; 0 serves without spin
-    real_serves: str = ""  # path to serves.json; empty: ../shared/data/ball-states/serves.json
+    real_serves: str = ""  # path to serves.json; empty: the copy shipped in tt_drake/data
 
 
 class BallLauncher(LeafSystem):

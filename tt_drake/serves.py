@@ -111,15 +111,11 @@ def serve_is_valid(model: BallModel, state: np.ndarray, region_margin: float = 0
 
 
 def real_serves_path() -> Path:
-    """Where ``serves.json`` is looked for: $TT_DRAKE_SERVES, else ../shared/data/ball-states/
-    beside the project root."""
-    import os
+    """Where ``serves.json`` is read from: $TT_DRAKE_SERVES, else the copy shipped in
+    ``tt_drake/data`` (:func:`tt_drake.data.ball_states_path`)."""
+    from tt_drake.data import ball_states_path
 
-    env = os.environ.get("TT_DRAKE_SERVES")
-    if env:
-        return Path(env)
-    root = Path(__file__).resolve().parents[1]
-    return root.parent / "shared" / "data" / "ball-states" / "serves.json"
+    return ball_states_path("serves")
 
 
 def load_real_states(path: Path | None = None) -> np.ndarray:
