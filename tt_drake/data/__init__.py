@@ -1,8 +1,9 @@
 """Real ball states shipped inside the package.
 
 ``serves.json`` and ``rallies.json`` come unchanged from
-google-deepmind/competitive_robot_table_tennis (CC-BY 4.0, Copyright 2025 Google LLC), accompanying D'Ambrosio et al., "Achieving Human Level
-Competitive Robot Table Tennis", ICRA 2025; see ``README.md`` in this folder.
+google-deepmind/competitive_robot_table_tennis (CC-BY 4.0, Copyright 2025 Google LLC),
+accompanying D'Ambrosio et al., "Achieving Human Level Competitive Robot Table Tennis",
+ICRA 2025; see ``README.md`` in this folder.
 """
 
 from __future__ import annotations
