@@ -37,7 +37,8 @@ BALL_MARKER_RADIUS = 0.045  # m
 HOLD = 0.6  # s: each episode's last pose stays on screen this long before the next serve
 TAIL = 0.5  # s: simulated after the decided landing (observation only), to show the bounce
 LANDING_RADIUS = 0.05  # m: the landing marker's sphere (the ball's is 0.02)
-PIN_HEIGHT = 0.35  # m: a pin above each landing point and the target, visible from afar
+PIN_HEIGHT = 0.45  # m: a pin above each landing point, visible from afar
+TARGET_PIN_HEIGHT = 0.25  # m: the target's, shorter
 TABLE_Z = 0.76  # m: the playing surface
 
 # From behind the robot's forehand side, above it: the arm, the table and the ball's flight.
@@ -99,13 +100,24 @@ class Recording:
         self.meshcat.SetObject("/ball_marker", Sphere(BALL_MARKER_RADIUS), Rgba(*BALL_COLOUR))
         self.offset = 0.0
         self.segments = []  # (start, end) on the recording's timeline, one per episode
+        # The last keyframe of every animated path: three.js loops each object's clip on its
+        # own duration, so each gets a keyframe at the recording's end (:meth:`_close`).
+        self._last_properties, self._last_transforms = {}, {}
+        self._last_pose = None
 
     def frame(self, t: float) -> int:
         return self.animation.frame(t)
 
+    def _set_property(self, frame: int, path: str, prop: str, value: bool) -> None:
+        self.animation.SetProperty(frame, path, prop, value)
+        last = self._last_properties.get((path, prop))
+        if last is None or frame >= last[0]:
+            self._last_properties[(path, prop)] = (frame, value)
+
     def _publish(self, t: float, ball, arm) -> None:
         from pydrake.math import RigidTransform
 
+        self._last_pose = (ball, arm)
         self.animation.SetTransform(self.frame(t), "/ball_marker", RigidTransform(ball[4:7]))
         plant = self.world.plant
         plant.SetPositions(self.plant_context, self.world.ball, ball)
@@ -136,21 +148,37 @@ class Recording:
         path = _episode_path(index)
         draw_episode(self.meshcat, path, result, ball[:, 4:7] if len(times) > 1 else None)
         draw_stroke(self.meshcat, path, stroke, self.library)
-        draw_beliefs(self.meshcat, self.animation, path, beliefs or {}, start)
+        last_prediction = draw_beliefs(self.meshcat, self.animation, path, beliefs or {}, start)
+        if last_prediction is not None:
+            self._last_transforms[last_prediction[0]] = last_prediction[1]
         if result.outcome.landing is not None:
             # The landing marker appears at the first frame after the ball landed.
             landed = math.ceil((start + _landing_time(times, ball, result)) * fps)
-            self.animation.SetProperty(0, f"{path}/landing", "visible", False)
-            self.animation.SetProperty(landed, f"{path}/landing", "visible", True)
+            self._set_property(0, f"{path}/landing", "visible", False)
+            self._set_property(landed, f"{path}/landing", "visible", True)
         if first > 0:
-            self.animation.SetProperty(0, path, "visible", False)
-        self.animation.SetProperty(first, path, "visible", True)
-        self.animation.SetProperty(stop, path, "visible", False)
+            self._set_property(0, path, "visible", False)
+        self._set_property(first, path, "visible", True)
+        self._set_property(stop, path, "visible", False)
         self.segments.append((start, stop / fps))
         self.offset = stop / fps
 
+    def _close(self) -> None:
+        """Give every animated path a keyframe at the recording's last frame, holding its last
+        value: all clips then last as long and loop together."""
+        from pydrake.math import RigidTransform
+
+        end = self.frame(self.offset)
+        if self._last_pose is not None:
+            self._publish(end / self.animation.frames_per_second(), *self._last_pose)
+        for (path, prop), (_, value) in self._last_properties.items():
+            self.animation.SetProperty(end, path, prop, value)
+        for path, point in self._last_transforms.items():
+            self.animation.SetTransform(end, path, RigidTransform(point))
+
     def html(self, data: dict) -> str:
         """The page: Drake's static HTML of the recording plus the legend (:func:`finish_page`)."""
+        self._close()
         self.visualizer.StopRecording()
         self.visualizer.PublishRecording()
         return finish_page(self.meshcat.StaticHtml(), data, self.segments,
@@ -168,9 +196,10 @@ def _landing_time(times, ball, result: EpisodeResult) -> float:
     return float(times[after][k])
 
 
-def draw_beliefs(meshcat, animation, path: str, beliefs: dict, offset: float = 0.0) -> None:
+def draw_beliefs(meshcat, animation, path: str, beliefs: dict, offset: float = 0.0):
     """What the robot believed: the estimated ball path (blue line) and the predicted hitting
-    point (magenta sphere), moved in the recording each time the prediction changed."""
+    point (magenta sphere), moved in the recording each time the prediction changed. Returns the
+    sphere's path and last position (None without predictions)."""
     from pydrake.geometry import Rgba, Sphere
     from pydrake.math import RigidTransform
 
@@ -180,7 +209,7 @@ def draw_beliefs(meshcat, animation, path: str, beliefs: dict, offset: float = 0
                         Rgba(*ESTIMATE_COLOUR))
     times, points = beliefs.get("prediction_times"), beliefs.get("predictions")
     if times is None or len(times) == 0:
-        return
+        return None
     name = f"{path}/predicted_hit"
     meshcat.SetObject(name, Sphere(0.04), Rgba(*PREDICTION_COLOUR))
     previous = None
@@ -188,6 +217,7 @@ def draw_beliefs(meshcat, animation, path: str, beliefs: dict, offset: float = 0
         if previous is None or np.linalg.norm(p - previous) > 1e-4:
             animation.SetTransform(animation.frame(offset + t), name, RigidTransform(p))
             previous = p
+    return name, previous
 
 
 def draw_episode(meshcat, path: str, result: EpisodeResult, ball_path=None) -> None:
@@ -204,9 +234,11 @@ def draw_episode(meshcat, path: str, result: EpisodeResult, ball_path=None) -> N
         x, y = result.outcome.landing
         meshcat.SetObject(f"{path}/landing/ball", Sphere(LANDING_RADIUS), colour)
         meshcat.SetTransform(f"{path}/landing/ball", RigidTransform([x, y, TABLE_Z]))
-        meshcat.SetObject(f"{path}/landing/pin", Cylinder(0.01, PIN_HEIGHT), colour)
+        meshcat.SetObject(f"{path}/landing/pin", Cylinder(0.012, PIN_HEIGHT), colour)
         meshcat.SetTransform(f"{path}/landing/pin",
                              RigidTransform([x, y, TABLE_Z + 0.5 * PIN_HEIGHT]))
+        meshcat.SetObject(f"{path}/landing/head", Sphere(0.04), colour)
+        meshcat.SetTransform(f"{path}/landing/head", RigidTransform([x, y, TABLE_Z + PIN_HEIGHT]))
 
 
 def mark_target(meshcat, x: float, y: float, radius: float) -> None:
@@ -217,10 +249,11 @@ def mark_target(meshcat, x: float, y: float, radius: float) -> None:
     colour = Rgba(*TARGET_COLOUR)
     meshcat.SetObject("/target/disc", Cylinder(radius, 0.004), colour)
     meshcat.SetTransform("/target/disc", RigidTransform([x, y, TABLE_Z + 0.003]))
-    meshcat.SetObject("/target/pin", Cylinder(0.008, PIN_HEIGHT), colour)
-    meshcat.SetTransform("/target/pin", RigidTransform([x, y, TABLE_Z + 0.5 * PIN_HEIGHT]))
-    meshcat.SetObject("/target/head", Sphere(0.035), colour)
-    meshcat.SetTransform("/target/head", RigidTransform([x, y, TABLE_Z + PIN_HEIGHT]))
+    height = TARGET_PIN_HEIGHT
+    meshcat.SetObject("/target/pin", Cylinder(0.008, height), colour)
+    meshcat.SetTransform("/target/pin", RigidTransform([x, y, TABLE_Z + 0.5 * height]))
+    meshcat.SetObject("/target/head", Sphere(0.03), colour)
+    meshcat.SetTransform("/target/head", RigidTransform([x, y, TABLE_Z + height]))
 
 
 def draw_stroke(meshcat, path: str, stroke: dict | None, library) -> None:
@@ -325,17 +358,19 @@ LEGEND_SCRIPT = """
     var rows = document.querySelectorAll("#tt-legend tr[data-start]");
     var clock = document.getElementById("tt-clock");
     var started = false;
-    setInterval(function () {
+    function update() {
+      requestAnimationFrame(update);  // with the viewer's own frames
       var animator = viewer.animator;
       if (!animator || animator.actions.length === 0) { return; }
       if (!started) { started = true; if (!animator.playing) { animator.play(); } }
       var t = animator.time;
-      clock.textContent = "t = " + t.toFixed(1) + " s of " + animator.duration.toFixed(1) + " s";
+      clock.textContent = "t = " + t.toFixed(2) + " s of " + animator.duration.toFixed(1) + " s";
       rows.forEach(function (row) {
         var now = t >= parseFloat(row.dataset.start) && t < parseFloat(row.dataset.end);
         row.classList.toggle("tt-now", now);
       });
-    }, 100);
+    }
+    requestAnimationFrame(update);
   })();
 </script>"""
 

@@ -10,7 +10,7 @@ from tt_drake.diagrams import serve as serve_module
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.recording import HOLD, TABLE_Z, TAIL, Recording, finish_page
 from tt_drake.diagrams.scenario import load_scenario
-from tt_drake.diagrams.serve import run_serves, serve_episodes
+from tt_drake.diagrams.serve import _report, run_serves, serve_episodes
 
 LEARNED = Path(__file__).resolve().parents[2] / "models" / "learned"
 
@@ -129,6 +129,15 @@ def test_serves_play_one_after_the_other():
     # Every ball-marker keyframe lies inside some serve's segment (nothing from t = 0 overlaid).
     last = spy.frame(recording.segments[-1][1])
     assert all(f < last for f, name, _ in spy.transforms if name == "/ball_marker")
+    # three.js loops each object's clip on its own duration: every animated path ends at the
+    # recording's last frame, so serve 1's drawings do not come back during serve 2.
+    page = recording.html(_report(scenario, "analytical", 2, results))
+    assert "tt-legend" in page
+    ends = {}
+    for f, name, *_ in spy.properties + spy.transforms:
+        ends[name] = max(ends.get(name, 0), f)
+    assert set(ends) >= {"/ball_marker", "/episodes/0000", "/episodes/0001/predicted_hit"}
+    assert set(ends.values()) == {last}
 
 
 def test_an_episode_is_the_same_alone_or_after_others():
