@@ -42,8 +42,8 @@ TARGET_PIN_HEIGHT = 0.25  # m: the target's, shorter
 TABLE_Z = 0.76  # m: the playing surface
 
 # From behind the robot's forehand side, above it: the arm, the table and the ball's flight.
-CAMERA_POSITION = (1.9, -3.0, 1.9)
-CAMERA_TARGET = (0.15, -0.35, 1.0)
+CAMERA_POSITION = (1.8, -2.95, 1.8)
+CAMERA_TARGET = (0.05, -0.5, 0.7)
 
 
 def make_meshcat():
@@ -322,7 +322,7 @@ def legend_html(data: dict, segments: list, target_radius: float) -> str:
              f"mean reward {s['mean_reward']:.2f}")
     return f"""
 <div id="tt-legend">
-  <div class="tt-title">{title}</div>
+  <div class="tt-title" title="click to fold or unfold the legend">{title} &#9662;</div>
   <div>{rates}</div>
   <div id="tt-clock">t = 0.0 s</div>
   <table><tr><th>serve</th><th>t (s)</th><th>outcome</th><th>landing x, y (m)</th>
@@ -330,13 +330,13 @@ def legend_html(data: dict, segments: list, target_radius: float) -> str:
   <ul>{items}</ul>
   <div class="tt-hint">The serves play one after the other, in a loop. Pause and scrub: Open
   Controls &rarr; Animations &rarr; default (play, pause, time). Drag to turn the view, scroll to
-  zoom.</div>
+  zoom. Click the title to fold this legend.</div>
 </div>"""
 
 
 LEGEND_STYLE = """
 <style>
-  #tt-legend { position: fixed; right: 10px; top: 30px; max-width: 440px; padding: 6px 8px;
+  #tt-legend { position: fixed; right: 10px; bottom: 10px; max-width: 440px; padding: 6px 8px;
     background: rgba(255,255,255,0.88); border: 1px solid #999; border-radius: 4px;
     font: 11px/1.3 sans-serif; color: #111; z-index: 10; }
   #tt-legend .tt-title { font-weight: bold; font-size: 13px; }
@@ -349,6 +349,11 @@ LEGEND_STYLE = """
   #tt-legend .tt-dot { display: inline-block; width: 10px; height: 10px; border-radius: 50%;
     margin: 0 10px -1px 4px; }
   #tt-legend .tt-hint { color: #444; font-size: 11px; }
+  #tt-legend .tt-title { cursor: pointer; }
+  #tt-legend.tt-folded table, #tt-legend.tt-folded ul, #tt-legend.tt-folded .tt-hint {
+    display: none; }
+  @media (max-width: 1100px) { #tt-legend { font-size: 10px; max-width: 380px; }
+    #tt-legend .tt-hint { font-size: 10px; } }
 </style>"""
 
 # Starts the animation if the page loaded it paused, and shows the time and the current serve.
@@ -357,6 +362,10 @@ LEGEND_SCRIPT = """
   (function () {
     var rows = document.querySelectorAll("#tt-legend tr[data-start]");
     var clock = document.getElementById("tt-clock");
+    var legend = document.getElementById("tt-legend");
+    legend.querySelector(".tt-title").onclick = function () {
+      legend.classList.toggle("tt-folded");
+    };
     var started = false;
     function update() {
       requestAnimationFrame(update);  // with the viewer's own frames
