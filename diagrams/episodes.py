@@ -369,8 +369,8 @@ class ServeDiagram:
         wall = time.perf_counter()
         self._set_gamma(gamma)
         self.context.SetTimeStateAndParametersFrom(self._initial)
-        # A fresh integrator: its step-size history from the last episode would make this one
-        # depend on what ran before it (~1e-11 m), and a recording extends episodes.
+        # A fresh integrator: its step-size history would make an episode depend on the ones
+        # before it (a landing point moved 7e-7 m) and on a recording's extension of them.
         ApplySimulatorConfig(self.scenario.world.simulator, self.simulator)
         for k, system in enumerate(self.seeded):  # the launcher gets the episode seed itself
             system.set_seed(system.GetMyMutableContextFromRoot(self.context),

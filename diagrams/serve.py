@@ -28,8 +28,8 @@ def run_serves(scenario: Scenario, player: str, serves: int, seed: int, html: st
         from tt_drake.diagrams.recording import Recording
 
         recording = Recording(scenario, diagram.library)
-    results = serve_episodes(diagram, [episode_seed(seed, i) for i in range(serves)], recording,
-                             progress, player)
+    seeds = (episode_seed(seed, i) for i in range(serves))
+    results = serve_episodes(diagram, seeds, recording, progress, player, total=serves)
     data = _report(scenario, player, seed, results)
     if recording is not None:
         write_text_atomic(html, recording.html(data))
@@ -39,11 +39,11 @@ def run_serves(scenario: Scenario, player: str, serves: int, seed: int, html: st
 
 
 def serve_episodes(diagram: ServeDiagram, seeds, recording=None, progress: bool = False,
-                   label: str = "") -> list:
+                   label: str = "", total: int | None = None) -> list:
     """Run one episode per seed on ``diagram``; with a ``Recording`` (and a diagram built with
     ``log_ball``), add each to it once its result is taken."""
     results = []
-    bar = tqdm(seeds, desc=f"serving ({label})", unit="serve", file=sys.stderr,
+    bar = tqdm(seeds, desc=f"serving ({label})", unit="serve", file=sys.stderr, total=total,
                disable=not progress)
     for i, seed in enumerate(bar):
         result = diagram.run(seed)
