@@ -8,10 +8,13 @@ OUT    ?= out
 
 .PHONY: install test test-slow test-ray test-wheel lint demo bench reproduce reproduce-quick clean
 
-$(STAMP): pyproject.toml
+# setuptools notes every editable install of a package folder at the project's root ("Editable
+# installation ... be careful with folders in your working directory"); that note alone is
+# silenced. `pip install .` warns of nothing (tests/test_packaging.py checks the build's log).
+$(STAMP): pyproject.toml setup.py
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+	PYTHONWARNINGS='ignore:Editable installation' $(BIN)/python -m pip install --quiet -e '.[test]'
 	touch $(STAMP)
 
 install: $(STAMP)

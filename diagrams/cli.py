@@ -6,10 +6,11 @@
     tt-drake collect --player analytical --serves N --seed S --out DIR [--workers W]
     tt-drake models  (rewrite the generated model files in models/)
     tt-drake train library|crkr --data DIR --out FILE [--primitives 300] [--samples 2500]
-    tt-drake serve --player momp --library FILE [--crkr FILE] [--predictor FILE]
-                   [--configuration crkr|analytical] ...
-    tt-drake serve --player crkr --crkr FILE [--predictor FILE] ...   (CrKR + teacher's quintics)
+    tt-drake serve --player momp [--library FILE --crkr FILE --predictor FILE]
+                   [--configuration crkr|analytical] ...   (no FILE: the shipped artefacts)
+    tt-drake serve --player crkr [--crkr FILE --predictor FILE] ...  (CrKR + teacher's quintics)
     tt-drake reproduce --out DIR [--quick] [--workers N] [--executor local|ray]
+    tt-drake --version
 
 Bad input (an unknown or malformed scenario field, a missing model or data file, an unknown
 distribution or player, N <= 0, an unwritable output path) gives one line naming the problem on
@@ -18,6 +19,7 @@ stderr and exit status 2, with no traceback and no partial output file.
 
 import argparse
 import sys
+from collections.abc import Callable
 
 EXIT_BAD_INPUT = 2
 
@@ -60,7 +62,7 @@ def _positive_int(text: str) -> int:
     return value
 
 
-def _one_of(what: str, names) -> callable:
+def _one_of(what: str, names: tuple[str, ...]) -> Callable[[str], str]:
     """An argparse ``type`` accepting one of ``names``; the error names the value and the
     choices (also given as ``choices=``, so that ``--help`` lists them)."""
     def check(text: str) -> str:

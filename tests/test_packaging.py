@@ -133,6 +133,14 @@ def test_the_installed_wheel_imports_every_module_and_knows_its_version(wheel_ve
 
     version = _run(venv, "--version", cwd=tmp_path)
     assert version.returncode == 0 and version.stdout.strip() == f"tt-drake {package_version()}"
+    # `tt-drake models` rewrites the installed package's model files: the same as the checkout's.
+    models = _run(venv, "models", cwd=tmp_path)
+    assert models.returncode == 0, models.stderr
+    written = [Path(line.removeprefix("wrote ")) for line in models.stdout.splitlines()]
+    assert {p.name for p in written} == {"table_world.sdf", "ball.sdf", "wam7_racket.urdf"}
+    for path in written:
+        assert venv in path.parents
+        assert path.read_text() == (REPO / "models" / path.name).read_text()
 
 
 @pytest.mark.slow
