@@ -5,8 +5,10 @@ import sys
 from tqdm import tqdm
 
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed, summarize
-from tt_drake.diagrams.scenario import Scenario
+from tt_drake.diagrams.scenario import Scenario, dump_scenario
 from tt_drake.outputs import check_writable, write_json_atomic, write_text_atomic
+from tt_drake.provenance import run_provenance
+from tt_drake.result_fields import serve_fields
 
 
 def run_serves(scenario: Scenario, player: str, serves: int, seed: int, html: str | None = None,
@@ -59,11 +61,32 @@ def serve_episodes(diagram: ServeDiagram, seeds, recording=None, progress: bool 
 
 
 def _report(scenario: Scenario, player: str, seed: int, results: list) -> dict:
+    """The result file: provenance, the full scenario, the run's settings, a ``fields`` legend
+    (names and units of every vector, :mod:`tt_drake.result_fields`), summary and episodes."""
     return {
-        "scenario": scenario.name, "player": player, "seed": seed,
-        "distribution": scenario.launcher.distribution,
+        **run_provenance(), "scenario": scenario_dict(scenario), "player": player, "seed": seed,
+        "distribution": scenario.launcher.distribution, "fields": serve_fields(),
         "summary": summarize(results), "episodes": [r.as_dict() for r in results],
     }
+
+
+def scenario_dict(scenario: Scenario) -> dict:
+    """Every field of ``scenario`` (defaults included) as plain data. A learned artefact inside
+    the installed package (the shipped ones, ``tt_drake.models``) is named relative to the
+    package, as ``tt_drake/models/learned/library.npz``, not by this machine's path to it."""
+    from importlib import resources
+    from pathlib import Path
+
+    from pydrake.common.yaml import yaml_load_data
+
+    data = yaml_load_data(dump_scenario(scenario))
+    models = Path(str(resources.files("tt_drake.models"))).resolve()
+    learned = data["learned"]
+    for key in ("library", "crkr", "predictor"):
+        path = Path(learned[key]).resolve() if learned[key] else None
+        if path is not None and path.is_relative_to(models):
+            learned[key] = f"tt_drake/models/{path.relative_to(models).as_posix()}"
+    return data
 
 
 def _run_parallel(scenario, player, serves, seed, json_path, progress, workers) -> dict:
