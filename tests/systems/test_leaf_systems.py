@@ -6,7 +6,7 @@ import pytest
 from tt_drake.ball_model import BallModel
 from tt_drake.constants import BALL
 from tt_drake.serves import ServeSampler
-from tt_drake.systems.aerodynamics import Aerodynamics
+from tt_drake.systems.aerodynamics import AerodynamicsConfig, make_aerodynamics
 from tt_drake.systems.ball_launcher import BallLauncher, LauncherConfig
 from tt_drake.systems.referee import Referee
 
@@ -17,14 +17,22 @@ def ball_port_value(p, v, w=(0.0, 0.0, 0.0)):
 
 
 def test_aerodynamics_force_is_mass_times_the_model_acceleration_minus_gravity():
-    aero = Aerodynamics(num_velocities=13, ball_velocity_start=7)
+    aero = make_aerodynamics(num_velocities=13, ball_velocity_start=7)
     context = aero.CreateDefaultContext()
     v, w = np.array([1.0, -6.0, 2.0]), np.array([20.0, -50.0, 10.0])
-    aero.get_input_port(0).FixValue(context, ball_port_value([0, 0, 1], v, w))
-    force = aero.get_output_port(0).Eval(context)
+    aero.GetInputPort("ball_state").FixValue(context, ball_port_value([0, 0, 1], v, w))
+    force = aero.GetOutputPort("generalized_force").Eval(context)
     expected = np.array(BallModel().acceleration(tuple(v), tuple(w))) + [0, 0, 9.81]
     np.testing.assert_allclose(force[10:13], BALL.mass * expected, rtol=1e-12)
     assert np.all(force[:10] == 0.0)  # the arm and the ball's torque entries get nothing
+
+
+def test_disabled_aerodynamics_applies_no_force():
+    aero = make_aerodynamics(13, 7, AerodynamicsConfig(enabled=False))
+    context = aero.CreateDefaultContext()
+    aero.get_input_port(0).FixValue(context, ball_port_value([0, 0, 1], [1.0, -6.0, 2.0],
+                                                             [20.0, -50.0, 10.0]))
+    np.testing.assert_array_equal(aero.get_output_port(0).Eval(context), np.zeros(13))
 
 
 def test_launcher_serve_is_a_pure_function_of_the_seed_parameter():
