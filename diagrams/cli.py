@@ -150,7 +150,8 @@ def _check_learned(player: str, scenario) -> None:
     from tt_drake.diagrams.episodes import LEARNED_PLAYERS, load_learned_player
 
     if player in LEARNED_PLAYERS:
-        load_learned_player(scenario, primitives=player == "momp")
+        # Kept: the diagram built next takes these instead of loading them again.
+        load_learned_player(scenario, primitives=player == "momp", keep=True)
 
 
 def _serve(args) -> None:

@@ -81,10 +81,30 @@ def _analytical_player(builder: DiagramBuilder, world: World, controller,
     return [camera]
 
 
-def load_learned_player(scenario: Scenario, primitives: bool = True) -> dict:
+# Artefacts loaded with ``keep`` (the CLI's check), by their files: the next load of the same files
+# takes them instead of loading (and refitting CrKR) again; forked workers inherit them.
+_CHECKED: dict = {}
+
+
+def _artefact_key(scenario: Scenario, primitives: bool) -> tuple:
+    import os
+
+    cfg = scenario.learned
+    files = []
+    for path in (cfg.library if primitives else "", cfg.crkr, cfg.predictor):
+        try:
+            st = os.stat(path) if path else None
+        except OSError:
+            st = None
+        files.append((path, None if st is None else (st.st_mtime_ns, st.st_size)))
+    return (scenario.name, primitives, cfg.configuration, *files)
+
+
+def load_learned_player(scenario: Scenario, primitives: bool = True, keep: bool = False) -> dict:
     """Load and check the learned player's artefacts named in ``scenario.learned`` (the
     primitive library only with ``primitives``); raise PlayerError with one line naming the
-    problem (missing, corrupt, another scenario)."""
+    problem (missing, corrupt, another scenario). With ``keep`` the artefacts are also kept for
+    the next load of the same unchanged files, which takes them (one diagram owns them)."""
     from tt_drake.constants import PLANES
     from tt_drake.hitting_point import HittingPointGPR, PredictorFileError
     from tt_drake.learned_player import (
@@ -103,6 +123,9 @@ def load_learned_player(scenario: Scenario, primitives: bool = True) -> dict:
     if cfg.configuration == "crkr" and not cfg.crkr:
         raise PlayerError("the learned player with --configuration crkr needs --crkr FILE (from "
                           "tt-drake train crkr)")
+    key = _artefact_key(scenario, primitives)
+    if key in _CHECKED:
+        return _CHECKED[key] if keep else _CHECKED.pop(key)
     out = {}
     try:
         if primitives:
@@ -113,6 +136,8 @@ def load_learned_player(scenario: Scenario, primitives: bool = True) -> dict:
         out["gpr"] = HittingPointGPR.load(cfg.predictor) if cfg.predictor else None
     except (LearnedArtefactError, PredictorFileError) as err:
         raise PlayerError(str(err)) from None
+    if keep:
+        _CHECKED[key] = out
     return out
 
 
