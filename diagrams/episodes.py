@@ -276,7 +276,9 @@ class ServeDiagram:
         add_aerodynamics(builder, world, scenario.aerodynamics)
         self.referee = builder.AddNamedSystem("referee", self._make_referee())
         builder.Connect(plant.get_state_output_port(world.ball), self.referee.get_input_port(0))
-        builder.Connect(plant.get_body_poses_output_port(), self.referee.get_input_port(1))
+        if world.robot is not None:
+            builder.Connect(plant.get_state_output_port(world.robot),
+                            self.referee.GetInputPort("robot_state"))
         builder.Connect(plant.get_contact_results_output_port(), self.referee.get_input_port(2))
         self.controller = None
         self.seeded = [self.launcher]
@@ -350,15 +352,15 @@ class ServeDiagram:
         world, plant = self.world, self.world.plant
         kwargs = {}
         if world.robot is not None:
+            from tt_drake.systems.referee import RacketCentre
             from tt_drake.systems.wam import RACKET_CENTER_FRAME
 
             frame = plant.GetFrameByName(RACKET_CENTER_FRAME, world.robot)
-            offset = frame.GetFixedPoseInBodyFrame().translation()
             robot_bodies = [plant.get_body(i).index() for i in plant.GetBodyIndices(world.robot)]
             inspector = world.scene_graph.model_inspector()
             table_ids = [g for g in plant.GetCollisionGeometriesForBody(plant.world_body())
                          if inspector.GetName(g).endswith("table_top")]
-            kwargs = dict(racket_body_index=frame.body().index(), racket_offset=offset,
+            kwargs = dict(racket_centre=RacketCentre(plant, world.robot, frame),
                           robot_body_indices=robot_bodies, table_geometry_ids=table_ids)
         return Referee(self.scenario.referee, self.scenario.referee_rate,
                        stop_when_decided=self.end_when_decided, **kwargs)
