@@ -1,11 +1,13 @@
 """``tt-drake bench``: wall time per serve episode and real-time factor of the project's serve
 diagram, against diagrams measured in the same run.
 
-- The C++ reference has the same plant, contact model and integrator, and the arm under the same
+- The C++ reference has the same plant and contact model, and the arm under the same
   InverseDynamicsController, but follows a C++ ``TrajectorySource`` swing and has no Python
-  system (no aerodynamics, launcher or referee). It runs the same serves for the same simulated
-  durations (those the project's episodes ended at); the launcher's serve sampling is timed
-  separately.
+  system (no aerodynamics, launcher or referee). It is integrated at the fixed
+  :data:`REFERENCE_SIMULATOR` recipe (RK3, accuracy 1e-4, max step 2 ms) whatever the scenario's
+  simulator settings, so that the ratio to it shows progress across changes of the scenario. It
+  runs the same serves for the same simulated durations (those the project's episodes ended
+  at); the launcher's serve sampling is timed separately.
 - For a player other than idle: the idle diagram on the same serves (the arm holds still, so
   the ball flies past and the episode ends sooner), and the **replay**: the same serve diagram
   (world, aerodynamics, launcher, referee, controller, servo holds) with the player and its
@@ -13,11 +15,17 @@ diagram, against diagrams measured in the same run.
   player's episode gave the servo. It simulates the same physics, so replay / idle is what the
   returned ball costs the simulation itself (a longer episode, more contacts, a spinning ball)
   and project / replay is what the player's systems cost.
+- With ``workers`` > 1: the same serves in that many worker processes
+  (:func:`tt_drake.diagrams.parallel.run_episodes`): the start-up (building the workers'
+  diagrams), the steady wall time per serve, the speed-up over one process and the projected
+  wall time of 10,000 serves.
 """
 
+import copy
 import time
 
 import numpy as np
+from pydrake.systems.analysis import SimulatorConfig
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
@@ -26,6 +34,11 @@ from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import Scenario
 from tt_drake.serves import ServeSampler
 from tt_drake.systems.world import add_world, make_simulator, set_ball_state
+
+# The recipe the C++ reference diagram was defined with (DESIGN.md): kept fixed.
+REFERENCE_SIMULATOR = SimulatorConfig(integration_scheme="runge_kutta3", accuracy=1e-4,
+                                      max_step_size=2e-3, use_error_control=True)
+PROJECTED_SERVES = 10_000
 
 
 def _swing(duration: float) -> PiecewisePolynomial:
@@ -45,8 +58,10 @@ class ReferenceDiagram:
         from tt_drake.systems.wam import add_wam_controller
         from tt_drake.wam_params import AWAITING
 
+        world_config = copy.copy(scenario.world)
+        world_config.simulator = REFERENCE_SIMULATOR
         builder = DiagramBuilder()
-        self.world = add_world(builder, scenario.world)
+        self.world = add_world(builder, world_config)
         c = scenario.controller
         controller = add_wam_controller(builder, self.world.plant, self.world.robot, c.kp, c.ki,
                                         c.kd)
@@ -57,7 +72,7 @@ class ReferenceDiagram:
                                        TrajectorySource(traj.derivative(2)))
         builder.Connect(accel.get_output_port(), controller.get_input_port_desired_acceleration())
         self.diagram = builder.Build()
-        self.simulator = make_simulator(self.diagram, scenario.world)
+        self.simulator = make_simulator(self.diagram, world_config)
         self.context = self.simulator.get_mutable_context()
         plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
         self.world.plant.SetPositions(plant_context, self.world.robot, np.asarray(AWAITING))
@@ -71,7 +86,8 @@ class ReferenceDiagram:
         self.simulator.AdvanceTo(duration)
 
 
-def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str = "idle") -> dict:
+def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str = "idle",
+              workers: int = 1) -> dict:
     seeds = [episode_seed(seed, i) for i in range(serves)]
     sampler = ServeSampler(scenario.launcher.distribution, scenario.launcher.spin_max,
                            scenario.launcher.real_serves or None)
@@ -95,6 +111,12 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
                       "real_time_factor": mean_duration / reference_wall},
         "serve_sampling_per_serve": sampling,
         "ratio_project_to_reference": project_wall / reference_wall,
+        "reference_simulator": {"integration_scheme": REFERENCE_SIMULATOR.integration_scheme,
+                                "accuracy": REFERENCE_SIMULATOR.accuracy,
+                                "max_step_size": REFERENCE_SIMULATOR.max_step_size},
+        "simulator": {"integration_scheme": scenario.world.simulator.integration_scheme,
+                      "accuracy": scenario.world.simulator.accuracy,
+                      "max_step_size": scenario.world.simulator.max_step_size},
     }
     if player != "idle":
         # The same serves at the idle diagram. A returned ball flies on to the far court, so per
@@ -111,6 +133,8 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
                             "mean_episode_sim_time": float(np.mean(replay_durations))}
         result["ratio_to_replay_per_serve"] = project_wall / replay_wall
         result["replay_to_idle_per_serve"] = replay_wall / idle_wall
+    if workers > 1:
+        result["parallel"] = _time_parallel(scenario, player, seeds, workers, project_wall)
     try:
         from tt_drake.benchmarks import bench_momp_planning
     except ImportError:
@@ -157,6 +181,30 @@ def _time_replay(scenario: Scenario, player: str, seeds: list[int]) -> tuple[flo
     return wall / len(seeds), durations
 
 
+def _time_parallel(scenario: Scenario, player: str, seeds: list[int], workers: int,
+                   serial_wall: float) -> dict:
+    """The serves of ``seeds`` on ``workers`` processes as ``tt-drake serve --workers`` runs them
+    (a learned player's artefacts loaded once, before the workers fork). ``start_up``: until the
+    first result (the workers build their diagrams); ``wall_per_serve``: the steady rate after
+    it; the projection adds the two for :data:`PROJECTED_SERVES` serves."""
+    from tt_drake.diagrams.episodes import LEARNED_PLAYERS, load_learned_player
+    from tt_drake.diagrams.parallel import run_episodes
+
+    if player in LEARNED_PLAYERS:
+        load_learned_player(scenario, primitives=player == "momp", keep=True)
+    t0 = time.perf_counter()
+    first = None
+    for _ in run_episodes(scenario, player, seeds, workers):
+        first = time.perf_counter() if first is None else first
+    end = time.perf_counter()
+    start_up = first - t0
+    per_serve = (end - first) / max(1, len(seeds) - 1)
+    return {"workers": workers, "serves": len(seeds), "total_wall": end - t0,
+            "start_up": start_up, "wall_per_serve": per_serve,
+            "speedup": serial_wall / per_serve,
+            "projected_wall_10000": start_up + PROJECTED_SERVES * per_serve}
+
+
 def _time_episodes(diagram: ServeDiagram, seeds: list[int]) -> tuple[float, list[float]]:
     """Wall time per episode over ``seeds`` (after one warm-up episode) and their durations."""
     diagram.run(seeds[0])  # warm caches (first Python calls, scalar conversions)
@@ -173,7 +221,9 @@ def format_bench(r: dict) -> str:
         f"{r['project']['real_time_factor']:5.1f}x real time",
         f"  C++ reference      {1e3 * r['reference']['wall_per_serve']:8.1f} ms/serve   "
         f"{r['reference']['real_time_factor']:5.1f}x real time",
-        f"  ratio project/reference: {r['ratio_project_to_reference']:.2f}",
+        f"  ratio project/reference: {r['ratio_project_to_reference']:.2f} (reference at "
+        f"accuracy {r['reference_simulator']['accuracy']:g}, project at "
+        f"{r['simulator']['accuracy']:g})",
         f"  serve sampling (included in project): "
         f"{1e3 * r['serve_sampling_per_serve']:.1f} ms/serve",
     ]
@@ -190,6 +240,12 @@ def format_bench(r: dict) -> str:
         lines.append(f"  ratio {r['player']}/replay: {r['ratio_to_replay_per_serve']:.2f} per "
                      f"serve (the player's systems); replay/idle: "
                      f"{r['replay_to_idle_per_serve']:.2f} (the returned ball's physics)")
+    if "parallel" in r:
+        p = r["parallel"]
+        lines.append(f"  {p['workers']} workers: {1e3 * p['wall_per_serve']:.1f} ms/serve steady "
+                     f"({p['speedup']:.2f}x one process) over {p['serves']} serves, start-up "
+                     f"{p['start_up']:.1f} s; projected {PROJECTED_SERVES:,} serves: "
+                     f"{p['projected_wall_10000'] / 60:.1f} min")
     if "momp_planning" in r:
         lines.append(f"  MoMP planning: {r['momp_planning']}")
     return "\n".join(lines)

@@ -73,6 +73,9 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--seed", type=int, default=0)
     bench.add_argument("--player", default="idle")
     bench.add_argument("--json", default=None, help="write the measurements as JSON")
+    bench.add_argument("--workers", type=_positive_int, default=1,
+                       help="also time the serves on this many worker processes and project "
+                            "10,000 serves (default 1: not)")
     _add_scenario_options(bench)
     _add_learned_options(bench)
 
@@ -177,7 +180,7 @@ def _bench(args) -> None:
     _check_learned(args.player, scenario)
     if args.json:
         check_writable(args.json)
-    result = run_bench(scenario, args.serves, args.seed, args.player)
+    result = run_bench(scenario, args.serves, args.seed, args.player, args.workers)
     print(format_bench(result))
     if args.json:
         write_json_atomic(args.json, result)
