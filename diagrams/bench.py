@@ -95,22 +95,25 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
     launch = [sampler.sample(s) for s in seeds]
     sampling = (time.perf_counter() - t0) / serves
 
-    project_wall, durations = _time_episodes(ServeDiagram(scenario, player), seeds)
+    project_wall, durations, project_cpu = _time_episodes(ServeDiagram(scenario, player), seeds)
     reference = ReferenceDiagram(scenario, max(durations))
     reference.run(launch[0].launch_state, durations[0])
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     for serve, duration in zip(launch, durations, strict=True):
         reference.run(serve.launch_state, duration)
     reference_wall = (time.perf_counter() - t0) / serves
+    reference_cpu = (time.process_time() - c0) / serves
     mean_duration = float(np.mean(durations))
     result = {
         "serves": serves, "player": player, "mean_episode_sim_time": mean_duration,
-        "project": {"wall_per_serve": project_wall,
+        "project": {"wall_per_serve": project_wall, "cpu_per_serve": project_cpu,
                     "real_time_factor": mean_duration / project_wall},
-        "reference": {"wall_per_serve": reference_wall,
+        "reference": {"wall_per_serve": reference_wall, "cpu_per_serve": reference_cpu,
                       "real_time_factor": mean_duration / reference_wall},
         "serve_sampling_per_serve": sampling,
         "ratio_project_to_reference": project_wall / reference_wall,
+        # The same ratio in this process's CPU time: steadier on a loaded machine.
+        "cpu_ratio_project_to_reference": project_cpu / reference_cpu,
         "reference_simulator": {"integration_scheme": REFERENCE_SIMULATOR.integration_scheme,
                                 "accuracy": REFERENCE_SIMULATOR.accuracy,
                                 "max_step_size": REFERENCE_SIMULATOR.max_step_size},
@@ -121,17 +124,18 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
     if player != "idle":
         # The same serves at the idle diagram. A returned ball flies on to the far court, so per
         # serve the player's episodes also simulate longer.
-        idle_wall, idle_durations = _time_episodes(ServeDiagram(scenario, "idle"), seeds)
+        idle_wall, idle_durations, _ = _time_episodes(ServeDiagram(scenario, "idle"), seeds)
         idle_sim = float(np.mean(idle_durations))
         result["idle"] = {"wall_per_serve": idle_wall, "mean_episode_sim_time": idle_sim,
                           "real_time_factor": idle_sim / idle_wall}
         result["ratio_to_idle_per_serve"] = project_wall / idle_wall
         result["ratio_to_idle_per_simulated_second"] = (
             (project_wall / mean_duration) / (idle_wall / idle_sim))
-        replay_wall, replay_durations = _time_replay(scenario, player, seeds)
-        result["replay"] = {"wall_per_serve": replay_wall,
+        replay_wall, replay_durations, replay_cpu = _time_replay(scenario, player, seeds)
+        result["replay"] = {"wall_per_serve": replay_wall, "cpu_per_serve": replay_cpu,
                             "mean_episode_sim_time": float(np.mean(replay_durations))}
         result["ratio_to_replay_per_serve"] = project_wall / replay_wall
+        result["cpu_ratio_to_replay_per_serve"] = project_cpu / replay_cpu
         result["replay_to_idle_per_serve"] = replay_wall / idle_wall
     if workers > 1:
         result["parallel"] = _time_parallel(scenario, player, seeds, workers, project_wall)
@@ -159,9 +163,11 @@ def _replay_player(builder: DiagramBuilder, world, controller, scenario: Scenari
     return []
 
 
-def _time_replay(scenario: Scenario, player: str, seeds: list[int]) -> tuple[float, list[float]]:
+def _time_replay(scenario: Scenario, player: str, seeds: list[int]
+                 ) -> tuple[float, list[float], float]:
     """Record the set-points of ``player``'s episodes (untimed), then time the replay diagram on
-    the same serves: wall time per episode (after a warm-up) and the episodes' durations."""
+    the same serves: wall time per episode (after a warm-up), the episodes' durations and the CPU
+    time per episode."""
     recorder = ServeDiagram(scenario, player, log_setpoints=True)
     trajectories = []
     for s in seeds:
@@ -172,13 +178,14 @@ def _time_replay(scenario: Scenario, player: str, seeds: list[int]) -> tuple[flo
     source = replay.diagram.GetSubsystemByName("setpoint_replay")
     source.UpdateTrajectory(trajectories[0])
     replay.run(seeds[0])  # warm-up
-    wall, durations = 0.0, []
+    wall, cpu, durations = 0.0, 0.0, []
     for s, trajectory in zip(seeds, trajectories, strict=True):
         source.UpdateTrajectory(trajectory)
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         durations.append(replay.run(s).duration)
         wall += time.perf_counter() - t0
-    return wall / len(seeds), durations
+        cpu += time.process_time() - c0
+    return wall / len(seeds), durations, cpu / len(seeds)
 
 
 def _time_parallel(scenario: Scenario, player: str, seeds: list[int], workers: int,
@@ -205,12 +212,15 @@ def _time_parallel(scenario: Scenario, player: str, seeds: list[int], workers: i
             "projected_wall_10000": start_up + PROJECTED_SERVES * per_serve}
 
 
-def _time_episodes(diagram: ServeDiagram, seeds: list[int]) -> tuple[float, list[float]]:
-    """Wall time per episode over ``seeds`` (after one warm-up episode) and their durations."""
+def _time_episodes(diagram: ServeDiagram, seeds: list[int]
+                   ) -> tuple[float, list[float], float]:
+    """Wall time per episode over ``seeds`` (after one warm-up episode), their durations and the
+    CPU time per episode."""
     diagram.run(seeds[0])  # warm caches (first Python calls, scalar conversions)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     durations = [diagram.run(s).duration for s in seeds]
-    return (time.perf_counter() - t0) / len(seeds), durations
+    n = len(seeds)
+    return (time.perf_counter() - t0) / n, durations, (time.process_time() - c0) / n
 
 
 def format_bench(r: dict) -> str:
@@ -218,12 +228,15 @@ def format_bench(r: dict) -> str:
         f"serve episodes: {r['serves']} ({r['player']} player), mean simulated time "
         f"{r['mean_episode_sim_time']:.2f} s",
         f"  project diagram    {1e3 * r['project']['wall_per_serve']:8.1f} ms/serve   "
-        f"{r['project']['real_time_factor']:5.1f}x real time",
+        f"{r['project']['real_time_factor']:5.1f}x real time   "
+        f"{1e3 * r['project']['cpu_per_serve']:8.1f} CPU ms/serve",
         f"  C++ reference      {1e3 * r['reference']['wall_per_serve']:8.1f} ms/serve   "
-        f"{r['reference']['real_time_factor']:5.1f}x real time",
+        f"{r['reference']['real_time_factor']:5.1f}x real time   "
+        f"{1e3 * r['reference']['cpu_per_serve']:8.1f} CPU ms/serve",
         f"  ratio project/reference: {r['ratio_project_to_reference']:.2f} (reference at "
         f"accuracy {r['reference_simulator']['accuracy']:g}, project at "
-        f"{r['simulator']['accuracy']:g})",
+        f"{r['simulator']['accuracy']:g}); in CPU time "
+        f"{r['cpu_ratio_project_to_reference']:.2f}",
         f"  serve sampling (included in project): "
         f"{1e3 * r['serve_sampling_per_serve']:.1f} ms/serve",
     ]
@@ -238,7 +251,8 @@ def format_bench(r: dict) -> str:
                      f"(the same physics, no player systems; mean simulated "
                      f"{r['replay']['mean_episode_sim_time']:.2f} s)")
         lines.append(f"  ratio {r['player']}/replay: {r['ratio_to_replay_per_serve']:.2f} per "
-                     f"serve (the player's systems); replay/idle: "
+                     f"serve, {r['cpu_ratio_to_replay_per_serve']:.2f} in CPU time (the "
+                     f"player's systems); replay/idle: "
                      f"{r['replay_to_idle_per_serve']:.2f} (the returned ball's physics)")
     if "parallel" in r:
         p = r["parallel"]
