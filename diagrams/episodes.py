@@ -23,7 +23,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, VectorLogSink
 
 from tt_drake.arm_metrics import arm_metrics
-from tt_drake.diagrams.scenario import Scenario
+from tt_drake.diagrams.scenario import Scenario, validate
 from tt_drake.referee_rules import Outcome
 from tt_drake.systems.aerodynamics import add_aerodynamics
 from tt_drake.systems.ball_launcher import BallLauncher
@@ -237,6 +237,7 @@ class ServeDiagram:
         if isinstance(player, str) and player not in PLAYERS:
             raise PlayerError(f"unknown player {player!r}; choose one of {', '.join(PLAYERS)}")
         add_player = PLAYERS[player] if isinstance(player, str) else player
+        validate(scenario)  # nothing invalid reaches Drake, whoever built the scenario
         self.scenario = scenario
         # The referee ends an episode once the return's outcome is decided, except when the
         # whole stroke is wanted: demonstrations (the return to the awaiting posture is one) and
