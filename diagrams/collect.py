@@ -78,7 +78,7 @@ def collect(scenario: Scenario, player: str, serves: int, seed: int, out: str,
     missing = []
     for c in range(n_chunks):
         try:
-            load_artefact(_chunk_path(folder, c), KIND)
+            load_artefact(_chunk_path(folder, c), KIND, allow_nonfinite=PER_SERVE)
         except ArtefactError:
             missing.append(c)
     todo = [i for c in missing for i in range(c * chunk_size, min(serves, (c + 1) * chunk_size))]
@@ -118,7 +118,7 @@ def load_dataset(folder) -> dict:
     parts = []
     for c in range(n_chunks):
         try:
-            arrays, _ = load_artefact(_chunk_path(folder, c), KIND)
+            arrays, _ = load_artefact(_chunk_path(folder, c), KIND, allow_nonfinite=PER_SERVE)
         except ArtefactError as err:
             raise DatasetError(f"dataset {folder} is incomplete or damaged: {err}") from None
         parts.append(arrays)
