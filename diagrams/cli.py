@@ -26,13 +26,45 @@ class CliError(Exception):
     """A user error: printed as one line, exit status 2."""
 
 
-def _positive_int(text: str) -> int:
+class OneLineParser(argparse.ArgumentParser):
+    """argparse whose option errors are what the README promises: one line on stderr,
+    ``tt-drake <command>: error: ...``, and exit status 2 (no usage block)."""
+
+    def error(self, message: str):
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {' '.join(message.split())}\n")
+
+
+def _whole_number(text: str) -> int:
     try:
-        value = int(text)
+        return int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+
+
+def _positive_int(text: str) -> int:
+    value = _whole_number(text)
     if value <= 0:
         raise argparse.ArgumentTypeError(f"must be > 0, got {value}")
+    return value
+
+
+def _serve_count(text: str) -> int:
+    """--serves: 1 .. MAX_SERVES (a run keeps every serve's result for its summary)."""
+    from tt_drake.constants import MAX_SERVES
+
+    value = _positive_int(text)
+    if value > MAX_SERVES:
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_SERVES}, got {value}")
+    return value
+
+
+def _seed(text: str) -> int:
+    """--seed: a whole number in [0, MAX_SEED]."""
+    from tt_drake.constants import MAX_SEED
+
+    value = _whole_number(text)
+    if not 0 <= value <= MAX_SEED:
+        raise argparse.ArgumentTypeError(f"must be in [0, {MAX_SEED}], got {value}")
     return value
 
 
@@ -53,13 +85,13 @@ def _add_learned_options(p: argparse.ArgumentParser) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="tt-drake", description=__doc__.split("\n")[0])
+    parser = OneLineParser(prog="tt-drake", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
 
     serve = sub.add_parser("serve", help="serve balls at a player and report what happened")
     serve.add_argument("--player", default="idle", help="which player returns the serves")
-    serve.add_argument("--serves", type=_positive_int, default=10, help="number of serves")
-    serve.add_argument("--seed", type=int, default=0, help="base seed of the run")
+    serve.add_argument("--serves", type=_serve_count, default=10, help="number of serves")
+    serve.add_argument("--seed", type=_seed, default=0, help="base seed of the run")
     serve.add_argument("--html", default=None, help="write a self-contained Meshcat recording")
     serve.add_argument("--json", default=None, help="write the summary and one record per serve")
     serve.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -69,8 +101,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_learned_options(serve)
 
     bench = sub.add_parser("bench", help="time serve episodes against a C++ reference diagram")
-    bench.add_argument("--serves", type=_positive_int, default=10)
-    bench.add_argument("--seed", type=int, default=0)
+    bench.add_argument("--serves", type=_serve_count, default=10)
+    bench.add_argument("--seed", type=_seed, default=0)
     bench.add_argument("--player", default="idle")
     bench.add_argument("--json", default=None, help="write the measurements as JSON")
     _add_scenario_options(bench)
@@ -78,8 +110,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     collect = sub.add_parser("collect", help="record teacher demonstrations (resumable)")
     collect.add_argument("--player", default="analytical")
-    collect.add_argument("--serves", type=_positive_int, default=100)
-    collect.add_argument("--seed", type=int, default=0)
+    collect.add_argument("--serves", type=_serve_count, default=100)
+    collect.add_argument("--seed", type=_seed, default=0)
     collect.add_argument("--out", required=True, help="dataset folder (created, or resumed)")
     collect.add_argument("--workers", type=_positive_int, default=None,
                          help="parallel worker processes (default: all cores)")
@@ -98,14 +130,14 @@ def build_parser() -> argparse.ArgumentParser:
                        help="crkr: at most this many teacher pairs (default 2500)")
 
     train = sub.add_parser("train-predictor", help="train the GPR hitting-point predictor")
-    train.add_argument("--serves", type=_positive_int, default=1000)
-    train.add_argument("--seed", type=int, default=0)
+    train.add_argument("--serves", type=_serve_count, default=1000)
+    train.add_argument("--seed", type=_seed, default=0)
     train.add_argument("--out", required=True, help="predictor file to write (.npz)")
     train.add_argument("--quiet", action="store_true", help="no progress bar")
     evalp = sub.add_parser("eval-predictor", help="GPR vs physical model on held-out serves")
     evalp.add_argument("--model", required=True, help="predictor file from train-predictor")
-    evalp.add_argument("--serves", type=_positive_int, default=3500)
-    evalp.add_argument("--seed", type=int, default=1)
+    evalp.add_argument("--serves", type=_serve_count, default=3500)
+    evalp.add_argument("--seed", type=_seed, default=1)
     evalp.add_argument("--json", default=None, help="write the metrics as JSON")
     evalp.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -246,7 +278,7 @@ COMMANDS = {"reproduce": _reproduce, "serve": _serve, "bench": _bench, "collect"
 
 def _user_errors() -> tuple[type[BaseException], ...]:
     from tt_drake.diagrams.collect import DatasetError
-    from tt_drake.diagrams.episodes import PlayerError
+    from tt_drake.diagrams.episodes import PlayerError, SeedError
     from tt_drake.diagrams.parallel import ExecutorError
     from tt_drake.diagrams.predictor import PredictorError
     from tt_drake.diagrams.reproduce import ReproduceError
@@ -260,7 +292,7 @@ def _user_errors() -> tuple[type[BaseException], ...]:
 
     return (CliError, ScenarioError, ServeError, PlayerError, ModelFileError, OutputError,
             PredictorError, PredictorFileError, DatasetError, TrainError, LearnedArtefactError,
-            ReproduceError, ExecutorError)
+            ReproduceError, ExecutorError, SeedError)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -268,7 +300,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         COMMANDS[args.command](args)
     except _user_errors() as err:
-        print(f"tt-drake {args.command}: error: {err}", file=sys.stderr)
+        print(f"tt-drake {args.command}: error: {' '.join(str(err).split())}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except OSError as err:  # the disk or the OS refused (full disk, permission): not a bug
+        print(f"tt-drake {args.command}: error: {' '.join(str(err).split())}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print(f"tt-drake {args.command}: interrupted", file=sys.stderr)

@@ -114,7 +114,8 @@ class Run:
     def _prepare(self) -> None:
         settings = {"format": "tt-drake-reproduce", "version": 1, "quick": self.quick,
                     "config": self.config.to_dict()}
-        claim_folder(self.root, "config.json", settings, ReproduceError, "run")
+        # Held while this Run lives: a second run into the same folder is refused.
+        self._lock = claim_folder(self.root, "config.json", settings, ReproduceError, "run")
 
     def folder(self, stage: str) -> Path:
         path = self.root / stage

@@ -4,7 +4,7 @@ import sys
 
 from tqdm import tqdm
 
-from tt_drake.diagrams.episodes import ServeDiagram, episode_seed, summarize
+from tt_drake.diagrams.episodes import ServeDiagram, check_run, episode_seed, summarize
 from tt_drake.diagrams.scenario import Scenario
 from tt_drake.outputs import check_writable, write_json_atomic, write_text_atomic
 
@@ -15,6 +15,7 @@ def run_serves(scenario: Scenario, player: str, serves: int, seed: int, html: st
 
     With ``workers`` > 1 the episodes run in that many processes (not with ``html``: the
     recording lives in this process's Meshcat)."""
+    check_run(seed, serves)
     for path in (html, json_path):
         if path:
             check_writable(path)
@@ -67,7 +68,7 @@ def _report(scenario: Scenario, player: str, seed: int, results: list) -> dict:
 def _run_parallel(scenario, player, serves, seed, json_path, progress, workers) -> dict:
     from tt_drake.diagrams.parallel import run_episodes
 
-    seeds = [episode_seed(seed, i) for i in range(serves)]
+    seeds = (episode_seed(seed, i) for i in range(serves))  # streamed, not listed
     results = []
     bar = tqdm(total=serves, desc=f"serving ({player}, {workers} workers)", unit="serve",
                file=sys.stderr, disable=not progress)

@@ -32,7 +32,8 @@ import numpy as np
 
 from tt_drake.outputs import atomic_file
 
-__all__ = ["ArtefactError", "FORMAT", "FORMAT_VERSION", "save_artefact", "load_artefact"]
+__all__ = ["ArtefactError", "FORMAT", "FORMAT_VERSION", "save_artefact", "load_artefact",
+           "check_npz_sizes"]
 
 FORMAT = "tt-drake-artefact"
 FORMAT_VERSION = 1
@@ -89,6 +90,20 @@ def save_artefact(
     with atomic_file(path, binary=True, check=False) as fh:
         np.savez_compressed(fh, **clean)
     return path
+
+
+def check_npz_sizes(path: str | os.PathLike) -> None:
+    """Raise :class:`ArtefactError` if an ``.npz`` file's members declare more bytes than they
+    hold (or than :data:`MAX_ARTEFACT_BYTES` in all), reading only their headers."""
+    path = Path(path)
+    try:
+        _check_declared_sizes(path, lambda msg: ArtefactError(f"{path}: {msg}"))
+    except ArtefactError:
+        raise
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError,
+            NotImplementedError) as exc:
+        raise ArtefactError(f"{path}: corrupt or truncated file ({type(exc).__name__}: "
+                            f"{exc})") from None
 
 
 def _check_declared_sizes(path: Path, fail) -> None:
