@@ -266,18 +266,28 @@ def test_second_run_into_a_locked_folder_is_refused(tmp_path, capsys):
 
 
 def test_concurrent_cli_run_is_refused(tmp_path):
-    """Two processes: this one holds the dataset folder, the CLI's collect is refused."""
-    from tt_drake.diagrams.collect import prepare_folder
+    """Two processes run the same collect into one folder: the first has claimed it (and waits
+    here, so the timing is fixed), the second is refused while the first runs."""
+    from tt_drake.diagrams.collect import CHUNK_SIZE, _manifest
 
     folder = tmp_path / "d"
-    manifest = {"format": "x"}
-    with prepare_folder(folder, manifest):
-        result = subprocess.run([sys.executable, "-m", "tt_drake.diagrams.cli", "collect",
+    manifest = _manifest(load_scenario(), "analytical", 1, 0, CHUNK_SIZE)
+    first = subprocess.Popen(
+        [sys.executable, "-c", "import json, sys; from tt_drake.diagrams.collect import "
+         "prepare_folder; claim = prepare_folder(sys.argv[1], json.loads(sys.argv[2])); "
+         "print('claimed', flush=True); sys.stdin.read()", str(folder), json.dumps(manifest)],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        assert first.stdout.readline().strip() == "claimed"
+        second = subprocess.run([sys.executable, "-m", "tt_drake.diagrams.cli", "collect",
                                  "--serves", "1", "--out", str(folder), "--quiet"],
                                 capture_output=True, text=True, timeout=300)
-    assert result.returncode == 2 and "in use by another" in result.stderr
-    assert len(result.stderr.strip().splitlines()) == 1
-    assert _left(folder) == ["manifest.json"]
+    finally:
+        first.communicate("", timeout=60)
+    assert second.returncode == 2, second.stderr
+    assert "in use by another" in second.stderr
+    assert len(second.stderr.strip().splitlines()) == 1
+    assert _left(folder) == ["manifest.json"]  # the second wrote nothing; the first released
 
 
 def test_predictor_cache_folder_is_locked(tmp_path):
