@@ -140,8 +140,10 @@ class FolderLock:
             held[0].close()
 
     def __del__(self) -> None:
-        with contextlib.suppress(Exception):
+        try:
             self.release()
+        except Exception:  # noqa: BLE001 (at interpreter exit the process drops the lock anyway)
+            pass
 
     def __enter__(self) -> FolderLock:
         return self
