@@ -52,11 +52,23 @@ def _version() -> str:
     return f"tt-drake {package_version()}"
 
 
-def _positive_int(text: str) -> int:
+class OneLineParser(argparse.ArgumentParser):
+    """argparse whose option errors are what the README promises: one line on stderr,
+    ``tt-drake <command>: error: ...``, and exit status 2 (no usage block)."""
+
+    def error(self, message: str):
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {' '.join(message.split())}\n")
+
+
+def _whole_number(text: str) -> int:
     try:
-        value = int(text)
+        return int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+
+
+def _positive_int(text: str) -> int:
+    value = _whole_number(text)
     if value <= 0:
         raise argparse.ArgumentTypeError(f"must be > 0, got {value}")
     return value
@@ -72,6 +84,26 @@ def _one_of(what: str, names: tuple[str, ...]) -> Callable[[str], str]:
         return text
     check.__name__ = what
     return check
+
+
+def _serve_count(text: str) -> int:
+    """--serves: 1 .. MAX_SERVES (a run keeps every serve's result for its summary)."""
+    from tt_drake.constants import MAX_SERVES
+
+    value = _positive_int(text)
+    if value > MAX_SERVES:
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_SERVES}, got {value}")
+    return value
+
+
+def _seed(text: str) -> int:
+    """--seed: a whole number in [0, MAX_SEED]."""
+    from tt_drake.constants import MAX_SEED
+
+    value = _whole_number(text)
+    if not 0 <= value <= MAX_SEED:
+        raise argparse.ArgumentTypeError(f"must be in [0, {MAX_SEED}], got {value}")
+    return value
 
 
 def _distribution(text: str) -> str:
@@ -117,7 +149,7 @@ def _add_player_option(p: argparse.ArgumentParser, default: str | None) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="tt-drake", description=__doc__.split("\n")[0],
+    parser = OneLineParser(prog="tt-drake", description=__doc__.split("\n")[0],
                                      formatter_class=_HelpFormatter)
     parser.add_argument("--version", action="version", version=_version())
     sub = parser.add_subparsers(dest="command", required=True)
@@ -127,8 +159,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     serve = command("serve", help="serve balls at a player and report what happened")
     _add_player_option(serve, None)
-    serve.add_argument("--serves", type=_positive_int, default=10, help="number of serves")
-    serve.add_argument("--seed", type=int, default=0, help="base seed of the run")
+    serve.add_argument("--serves", type=_serve_count, default=10, help="number of serves")
+    serve.add_argument("--seed", type=_seed, default=0, help="base seed of the run")
     serve.add_argument("--html", default=None, help="write a self-contained Meshcat recording")
     serve.add_argument("--json", default=None, help="write the summary and one record per serve")
     serve.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -138,8 +170,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_learned_options(serve)
 
     bench = command("bench", help="time serve episodes against a C++ reference diagram")
-    bench.add_argument("--serves", type=_positive_int, default=10, help="number of serves")
-    bench.add_argument("--seed", type=int, default=0, help="base seed of the run")
+    bench.add_argument("--serves", type=_serve_count, default=10, help="number of serves")
+    bench.add_argument("--seed", type=_seed, default=0, help="base seed of the run")
     _add_player_option(bench, "idle")
     bench.add_argument("--json", default=None, help="write the measurements as JSON")
     bench.add_argument("--workers", type=_positive_int, default=1,
@@ -150,8 +182,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     collect = command("collect", help="record teacher demonstrations (resumable)")
     _add_player_option(collect, "analytical")
-    collect.add_argument("--serves", type=_positive_int, default=100, help="number of serves")
-    collect.add_argument("--seed", type=int, default=0, help="base seed of the run")
+    collect.add_argument("--serves", type=_serve_count, default=100, help="number of serves")
+    collect.add_argument("--seed", type=_seed, default=0, help="base seed of the run")
     collect.add_argument("--out", required=True, help="dataset folder (created, or resumed)")
     collect.add_argument("--workers", type=_positive_int, default=None,
                          help="parallel worker processes (default: all cores)")
@@ -170,14 +202,14 @@ def build_parser() -> argparse.ArgumentParser:
                        help="crkr: at most this many teacher pairs")
 
     train = command("train-predictor", help="train the GPR hitting-point predictor")
-    train.add_argument("--serves", type=_positive_int, default=1000, help="training serves")
-    train.add_argument("--seed", type=int, default=0, help="base seed of the serves")
+    train.add_argument("--serves", type=_serve_count, default=1000, help="training serves")
+    train.add_argument("--seed", type=_seed, default=0, help="base seed of the serves")
     train.add_argument("--out", required=True, help="predictor file to write (.npz)")
     train.add_argument("--quiet", action="store_true", help="no progress bar")
     evalp = command("eval-predictor", help="GPR vs physical model on held-out serves")
     evalp.add_argument("--model", required=True, help="predictor file from train-predictor")
-    evalp.add_argument("--serves", type=_positive_int, default=3500, help="held-out serves")
-    evalp.add_argument("--seed", type=int, default=1, help="base seed of the serves")
+    evalp.add_argument("--serves", type=_serve_count, default=3500, help="held-out serves")
+    evalp.add_argument("--seed", type=_seed, default=1, help="base seed of the serves")
     evalp.add_argument("--json", default=None, help="write the metrics as JSON")
     evalp.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -345,7 +377,7 @@ COMMANDS = {"reproduce": _reproduce, "serve": _serve, "bench": _bench, "collect"
 
 def _user_errors() -> tuple[type[BaseException], ...]:
     from tt_drake.diagrams.collect import DatasetError
-    from tt_drake.diagrams.episodes import PlayerError
+    from tt_drake.diagrams.episodes import PlayerError, SeedError
     from tt_drake.diagrams.parallel import ExecutorError
     from tt_drake.diagrams.predictor import PredictorError
     from tt_drake.diagrams.reproduce import ReproduceError
@@ -359,7 +391,7 @@ def _user_errors() -> tuple[type[BaseException], ...]:
 
     return (CliError, ScenarioError, ServeError, PlayerError, ModelFileError, OutputError,
             PredictorError, PredictorFileError, DatasetError, TrainError, LearnedArtefactError,
-            ReproduceError, ExecutorError)
+            ReproduceError, ExecutorError, SeedError)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -367,7 +399,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         COMMANDS[args.command](args)
     except _user_errors() as err:
-        print(f"tt-drake {args.command}: error: {err}", file=sys.stderr)
+        print(f"tt-drake {args.command}: error: {' '.join(str(err).split())}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except OSError as err:  # the disk or the OS refused (full disk, permission): not a bug
+        print(f"tt-drake {args.command}: error: {' '.join(str(err).split())}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print(f"tt-drake {args.command}: interrupted", file=sys.stderr)

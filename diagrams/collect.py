@@ -19,7 +19,7 @@ import numpy as np
 from tqdm import tqdm
 
 from tt_drake.artefacts import ArtefactError, load_artefact, save_artefact
-from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
+from tt_drake.diagrams.episodes import ServeDiagram, check_run, episode_seed
 from tt_drake.diagrams.parallel import run_episodes
 from tt_drake.diagrams.scenario import Scenario
 from tt_drake.outputs import claim_folder
@@ -49,9 +49,26 @@ def _manifest(scenario: Scenario, player: str, serves: int, seed: int, chunk_siz
             "trajectory_columns": TRAJECTORY_COLUMNS}
 
 
-def prepare_folder(folder: Path, manifest: dict) -> None:
-    """Create ``folder`` with its manifest, or check an existing one is this run's."""
-    claim_folder(folder, MANIFEST, manifest, DatasetError, "run's dataset")
+def prepare_folder(folder: Path, manifest: dict):
+    """Create ``folder`` with its manifest, or check an existing one is this run's; returns the
+    folder's lock (:class:`tt_drake.outputs.FolderLock`), to hold while the run writes."""
+    return claim_folder(folder, MANIFEST, manifest, DatasetError, "run's dataset")
+
+
+def _missing_chunks(folder: Path, n_chunks: int) -> list[int]:
+    """Chunks to simulate: absent ones, and damaged ones (reported on stderr, one line each)."""
+    missing = []
+    for c in range(n_chunks):
+        path = _chunk_path(folder, c)
+        if not path.exists():
+            missing.append(c)
+            continue
+        try:
+            load_artefact(path, KIND, allow_nonfinite=PER_SERVE)
+        except ArtefactError as err:
+            print(f"tt-drake collect: damaged chunk, simulating it again: {err}", file=sys.stderr)
+            missing.append(c)
+    return missing
 
 
 def _pack(indices: list[int], seeds: list[int], results: list) -> dict:
@@ -73,36 +90,35 @@ def collect(scenario: Scenario, player: str, serves: int, seed: int, out: str,
     """Simulate the missing chunks of the dataset (on ``executor``, see
     :func:`tt_drake.diagrams.parallel.run_episodes`); returns a summary."""
     folder = Path(out)
-    prepare_folder(folder, _manifest(scenario, player, serves, seed, chunk_size))
-    n_chunks = -(-serves // chunk_size)
-    missing = []
-    for c in range(n_chunks):
-        try:
-            load_artefact(_chunk_path(folder, c), KIND)
-        except ArtefactError:
-            missing.append(c)
-    todo = [i for c in missing for i in range(c * chunk_size, min(serves, (c + 1) * chunk_size))]
-    bar = tqdm(total=serves, initial=serves - len(todo), desc=f"collecting ({player})",
-               unit="serve", file=sys.stderr, disable=not progress)
-    make = functools.partial(ServeDiagram, record=True)
-    seeds = [episode_seed(seed, i) for i in todo]
-    pending: dict[int, list] = {}
-    for i, s, result in zip(todo, seeds, run_episodes(scenario, player, seeds, workers, make,
-                                                               executor=executor),
-                            strict=True):
-        chunk = i // chunk_size
-        pending.setdefault(chunk, []).append((i, s, result))
-        bar.update()
-        size = min(serves, (chunk + 1) * chunk_size) - chunk * chunk_size
-        if len(pending[chunk]) == size:
-            items = pending.pop(chunk)
-            save_artefact(_chunk_path(folder, chunk), KIND,
-                          _pack([i for i, _, _ in items], [s for _, s, _ in items],
-                                [r for _, _, r in items]),
-                          {"chunk": chunk, "seed": seed, "player": player})
-    bar.close()
+    check_run(seed, serves)  # before the folder is claimed: nothing written for a bad seed
+    with prepare_folder(folder, _manifest(scenario, player, serves, seed, chunk_size)):
+        missing = _missing_chunks(folder, -(-serves // chunk_size))
+
+        def indices():  # streamed: no list of every serve's seed up front
+            for c in missing:
+                yield from range(c * chunk_size, min(serves, (c + 1) * chunk_size))
+
+        n_todo = sum(min(serves, (c + 1) * chunk_size) - c * chunk_size for c in missing)
+        bar = tqdm(total=serves, initial=serves - n_todo, desc=f"collecting ({player})",
+                   unit="serve", file=sys.stderr, disable=not progress)
+        make = functools.partial(ServeDiagram, record=True)
+        seeds = (episode_seed(seed, i) for i in indices())
+        pending: dict[int, list] = {}
+        for i, result in zip(indices(), run_episodes(scenario, player, seeds, workers, make,
+                                                     executor=executor), strict=True):
+            chunk = i // chunk_size
+            pending.setdefault(chunk, []).append((i, result.seed, result))
+            bar.update()
+            size = min(serves, (chunk + 1) * chunk_size) - chunk * chunk_size
+            if len(pending[chunk]) == size:
+                items = pending.pop(chunk)
+                save_artefact(_chunk_path(folder, chunk), KIND,
+                              _pack([i for i, _, _ in items], [s for _, s, _ in items],
+                                    [r for _, _, r in items]),
+                              {"chunk": chunk, "seed": seed, "player": player})
+        bar.close()
     data = load_dataset(folder)
-    return {"serves": serves, "simulated": len(todo), "kept": serves - len(todo),
+    return {"serves": serves, "simulated": n_todo, "kept": serves - n_todo,
             "return_rate": float(data["returned"].mean()), "folder": str(folder)}
 
 
@@ -118,7 +134,7 @@ def load_dataset(folder) -> dict:
     parts = []
     for c in range(n_chunks):
         try:
-            arrays, _ = load_artefact(_chunk_path(folder, c), KIND)
+            arrays, _ = load_artefact(_chunk_path(folder, c), KIND, allow_nonfinite=PER_SERVE)
         except ArtefactError as err:
             raise DatasetError(f"dataset {folder} is incomplete or damaged: {err}") from None
         parts.append(arrays)

@@ -24,7 +24,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, VectorLogSink
 
 from tt_drake.arm_metrics import arm_metrics
-from tt_drake.diagrams.scenario import Scenario
+from tt_drake.diagrams.scenario import Scenario, validate
 from tt_drake.referee_rules import Outcome
 from tt_drake.systems.aerodynamics import add_aerodynamics
 from tt_drake.systems.ball_launcher import BallLauncher
@@ -35,6 +35,11 @@ from tt_drake.wam_params import SERVO_PERIOD
 
 # The players' set-points are held for a servo tick; they evaluate their plans half a tick ahead.
 SETPOINT_LEAD = 0.5 * SERVO_PERIOD
+
+
+# Longest episode of a serve that never crosses the hitting plane (s): any ball reaches the
+# floor sooner.
+NO_CROSSING_DURATION = 3.0
 
 
 class PlayerError(ValueError):
@@ -225,7 +230,8 @@ class EpisodeResult:
         return {
             "seed": self.seed,
             "launch_state": [round(float(c), 5) for c in self.launch_state],
-            "predicted_crossing": [round(float(c), 5) for c in self.predicted_crossing],
+            "predicted_crossing": [round(float(c), 5) if np.isfinite(c) else None
+                                   for c in self.predicted_crossing],  # None: no crossing
             "duration": round(self.duration, 4),
             "wall_time": round(self.wall_time, 4),
             **self.outcome.as_dict(),
@@ -263,6 +269,7 @@ class ServeDiagram:
         if isinstance(player, str) and player not in PLAYERS:
             raise PlayerError(f"unknown player {player!r}; choose one of {', '.join(PLAYERS)}")
         add_player = PLAYERS[player] if isinstance(player, str) else player
+        validate(scenario)  # nothing invalid reaches Drake, whoever built the scenario
         self.scenario = scenario
         # The referee ends an episode once the return's outcome is decided, except when the
         # whole stroke is wanted: demonstrations (the return to the awaiting posture is one).
@@ -409,7 +416,10 @@ class ServeDiagram:
             logger.FindMutableLog(self.context).Clear()
         if self.recorder is not None:
             self.recorder.clear(self.context)
-        max_duration = float(serve.crossing.t + self.scenario.after_crossing)
+        # A serve the model predicts never to cross the hitting plane (possible with a custom
+        # launcher) is simulated until the ball reaches the floor, NO_CROSSING_DURATION at most.
+        max_duration = (float(serve.crossing.t + self.scenario.after_crossing)
+                        if serve.crossing is not None else NO_CROSSING_DURATION)
         self.simulator.Initialize()
         self.simulator.AdvanceTo(max_duration)  # the referee may end it earlier
         self._end = max_duration
@@ -425,7 +435,8 @@ class ServeDiagram:
             x = self.arm_logger.FindLog(self.context).data().T
             tau = self.torque_logger.FindLog(self.context).data().T
             arm = arm_metrics(x[:, :7], x[:, 7:], tau)
-        crossing = np.r_[serve.crossing.position, serve.crossing.velocity, serve.crossing.t]
+        crossing = (np.r_[serve.crossing.position, serve.crossing.velocity, serve.crossing.t]
+                    if serve.crossing is not None else np.full(7, np.nan))
         record = None
         if self.recorder is not None:
             record = self.recorder.extract(self.diagram, self.context, outcome)
@@ -507,6 +518,23 @@ class ServeDiagram:
         # of tick k - 1.
         held = np.vstack([state.data(), accel.data()]).T
         return state.sample_times()[:-1].copy(), held[1:].copy()
+
+
+class SeedError(ValueError):
+    """A base seed or serve count outside its range."""
+
+
+def check_run(seed: int, serves: int | None = None) -> None:
+    """Refuse a base seed outside [0, MAX_SEED] or a serve count outside [1, MAX_SERVES]
+    before anything is simulated or written."""
+    from tt_drake.constants import MAX_SEED, MAX_SERVES
+
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not (
+            0 <= seed <= MAX_SEED):
+        raise SeedError(f"seed must be a whole number in [0, {MAX_SEED}], got {seed!r}")
+    if serves is not None and (isinstance(serves, bool) or not isinstance(
+            serves, (int, np.integer)) or not 1 <= serves <= MAX_SERVES):
+        raise SeedError(f"serves must be a whole number in [1, {MAX_SERVES}], got {serves!r}")
 
 
 def episode_seed(base_seed: int, index: int) -> int:

@@ -10,6 +10,7 @@ worth of work, and BLAS threads of several workers oversubscribe the cores (a Cr
 3.6 s instead of 0.14 s under load; docs/performance.md).
 """
 
+import itertools
 import multiprocessing
 import os
 from collections.abc import Callable, Iterable, Iterator
@@ -60,22 +61,26 @@ def run_episodes(scenario: Scenario, player: str, seeds: Iterable[int], workers:
     """Yield the episodes of ``seeds`` in order (as they finish, in order). ``gamma``: the momp
     player's responsibilities for all of them (default: its library's). ``executor``: ``local``
     (forked processes) or another name in :data:`EXECUTORS`."""
-    seeds = list(seeds)
     if executor not in EXECUTORS:
         raise ExecutorError(f"unknown executor {executor!r}; choose one of {', '.join(EXECUTORS)}")
     if executor != "local":
-        yield from EXECUTORS[executor](scenario, player, seeds, workers, make_diagram, gamma)
+        yield from EXECUTORS[executor](scenario, player, list(seeds), workers, make_diagram,
+                                       gamma)
         return
-    if workers <= 1 or len(seeds) <= 1:
+    # Seeds are streamed (a generator is never listed): only the first ``workers`` are looked
+    # at to size the pool, and imap takes the rest as the workers need them.
+    seeds = iter(seeds)
+    head = list(itertools.islice(seeds, max(1, workers)))
+    if workers <= 1 or len(head) <= 1:
         diagram = make_diagram(scenario, player)
-        for seed in seeds:
+        for seed in itertools.chain(head, seeds):
             yield diagram.run(seed, gamma=gamma)
         return
     context = multiprocessing.get_context("fork")
-    pool = context.Pool(min(workers, len(seeds)), initializer=_init,
-                        initargs=(scenario, player, make_diagram))
+    pool = context.Pool(len(head), initializer=_init, initargs=(scenario, player, make_diagram))
     try:
-        yield from pool.imap(_run, [(seed, gamma) for seed in seeds], chunksize=1)
+        yield from pool.imap(_run, ((seed, gamma) for seed in itertools.chain(head, seeds)),
+                             chunksize=1)
         pool.close()
     finally:
         pool.terminate()

@@ -18,21 +18,26 @@ forked processes (two by default), each building its diagram once.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import math
 import os
 import sys
 import time
+import zipfile
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from tt_drake.artefacts import ArtefactError, check_npz_sizes
 from tt_drake.ball_model import BallModel, CompliantBounceBallModel
 from tt_drake.camera_model import CameraConfig, CameraModel
 from tt_drake.constants import PLANES
 from tt_drake.diagrams.ball_world import BallOnlyWorld
+from tt_drake.diagrams.episodes import check_run
 from tt_drake.estimation import EstimatorConfig, nees, run_filter
 from tt_drake.hitting_point import (
     OUTPUT_NAMES,
@@ -145,39 +150,77 @@ def _chunk_path(cache_dir: Path, base_seed: int, index: int) -> Path:
 def generate_samples(n: int, base_seed: int, cache_dir: str | os.PathLike | None,
                      workers: int = 2, progress: bool = True, desc: str = "simulating") -> dict:
     """Simulate serves 0..n-1 of ``base_seed`` (seeds ``episode_seed(base_seed, i)``), reusing
-    cached chunks; returns the stacked arrays of :class:`SimSample`."""
+    cached chunks (a damaged one is reported and simulated again); returns the stacked arrays
+    of :class:`SimSample`."""
+    from tt_drake.outputs import FolderLock
+
+    check_run(base_seed, n)
+    cache = Path(cache_dir) if cache_dir is not None else None
+    # The cache folder is locked while this run fills it: a concurrent run is refused.
+    lock = FolderLock(cache, PredictorError, "predictor run") if cache is not None else None
+    try:
+        return _generate_samples(n, base_seed, cache, workers, progress, desc)
+    finally:
+        if lock is not None:
+            lock.release()
+
+
+def _load_chunk(path: Path, seeds: list[int]) -> dict | None:
+    """The cached chunk's first ``len(seeds)`` serves if it holds these serves, else None; a
+    damaged file is reported (one line on stderr), removed and simulated again."""
+    if not path.is_file():
+        return None
+    try:
+        check_npz_sizes(path)
+        with np.load(path, allow_pickle=False) as z:
+            data = {k: z[k] for k in z.files}
+        m = len(data["seed"])
+        expected = {"seed": (m,), "launch": (m, 9), "frames_p": (m, MAX_FRAMES, 3),
+                    "frames_v": (m, MAX_FRAMES, 3), "crossing": (m, 7), "model_crossing": (m, 7),
+                    "rigid_crossing": (m, 7)}
+        shapes = {k: a.shape for k, a in data.items()}
+        if shapes != expected:
+            raise ValueError(f"arrays {shapes}, expected {expected}")
+        if not np.all(np.isfinite(data["launch"])):
+            raise ValueError("non-finite launch states")
+    except (ArtefactError, zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError,
+            KeyError, NotImplementedError) as err:
+        print(f"tt-drake: damaged cache chunk {path}, simulating it again "
+              f"({' '.join(str(err).split())[:200]})", file=sys.stderr)
+        with contextlib.suppress(OSError):
+            path.unlink()
+        return None
+    if m < len(seeds) or [int(s) for s in data["seed"][: len(seeds)]] != seeds:
+        return None  # another run's serves (a shorter run): simulated and replaced
+    return {k: a[: len(seeds)] for k, a in data.items()}
+
+
+def _generate_samples(n: int, base_seed: int, cache: Path | None, workers: int, progress: bool,
+                      desc: str) -> dict:
     from tqdm import tqdm
 
     from tt_drake.diagrams.episodes import episode_seed
+    from tt_drake.outputs import atomic_file
 
     n_chunks = math.ceil(n / CHUNK)
     chunks: dict[int, dict] = {}
     todo = []
-    cache = Path(cache_dir) if cache_dir is not None else None
-    if cache is not None:
-        cache.mkdir(parents=True, exist_ok=True)
     for c in range(n_chunks):
         seeds = [episode_seed(base_seed, i) for i in range(c * CHUNK, min(n, (c + 1) * CHUNK))]
         path = _chunk_path(cache, base_seed, c) if cache is not None else None
-        if path is not None and path.is_file():
-            try:
-                with np.load(path, allow_pickle=False) as z:
-                    data = {k: z[k] for k in z.files}
-                if list(data["seed"][: len(seeds)]) == seeds and len(data["seed"]) >= len(seeds):
-                    chunks[c] = {k: a[: len(seeds)] for k, a in data.items()}
-                    continue
-            except (OSError, ValueError, KeyError):
-                pass
+        data = _load_chunk(path, seeds) if path is not None else None
+        if data is not None:
+            chunks[c] = data
+            continue
         todo.append((c, seeds, path))
     bar = tqdm(total=n, desc=desc, unit="serve", file=sys.stderr, disable=not progress,
                initial=sum(len(ch["seed"]) for ch in chunks.values()))
 
     def store(c, path, data):
         chunks[c] = data
-        if path is not None:
-            tmp = path.with_suffix(".tmp.npz")
-            np.savez(tmp, **data)
-            os.replace(tmp, path)
+        if path is not None:  # atomically: a full disk leaves neither a chunk nor a temp file
+            with atomic_file(path, binary=True, check=False) as f:
+                np.savez(f, **data)
         bar.update(len(data["seed"]))
 
     try:

@@ -115,7 +115,8 @@ class Run:
     def _prepare(self) -> None:
         settings = {"format": "tt-drake-reproduce", "version": 1, "quick": self.quick,
                     "config": self.config.to_dict()}
-        claim_folder(self.root, "config.json", settings, ReproduceError, "run")
+        # Held while this Run lives: a second run into the same folder is refused.
+        self._lock = claim_folder(self.root, "config.json", settings, ReproduceError, "run")
 
     def rel(self, path) -> str:
         """``path`` as a stage result records it: relative to the run folder, so that results

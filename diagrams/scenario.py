@@ -7,9 +7,12 @@ among them), loaded with ``yaml_load_typed`` so that a misspelt or unknown field
 """
 
 
+import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
@@ -86,23 +89,145 @@ def load_scenario(name_or_path: str = "default") -> Scenario:
     return scenario
 
 
-def validate(scenario: Scenario, origin: object = "scenario") -> None:
-    """Checks the YAML schema cannot express."""
+# -- validation: one table of rules, one place ----------------------------------------------------
+#
+# Every scenario field is checked here before anything is built: a rule maps a dotted field path
+# to a check that returns None (fine) or a short description of what is wrong. Non-finite numbers
+# (``.nan``, ``.inf``) fail every numeric rule. Add a field's rule to FIELD_RULES (or a rule per
+# list element with ``each``) next to the field; :func:`validate` reports every failing field in
+# one line. Model files are checked by :func:`check_model_file` (exists, parses as XML).
+
+Check = Callable[[Any], "str | None"]
+
+
+def number(minimum: float | None = None, maximum: float | None = None,
+           above: float | None = None) -> Check:
+    """A finite real number with ``minimum <= value <= maximum`` and ``value > above``."""
+
+    def check(value):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            return f"must be a number (got {value!r})"
+        if not math.isfinite(value):
+            return f"must be finite (got {value})"
+        if above is not None and not value > above:
+            return f"must be > {above:g} (got {value:g})"
+        if minimum is not None and value < minimum:
+            return f"must be >= {minimum:g} (got {value:g})"
+        if maximum is not None and value > maximum:
+            return f"must be <= {maximum:g} (got {value:g})"
+        return None
+
+    return check
+
+
+def each(size: int, element: Check) -> Check:
+    """A list of ``size`` values, each passing ``element``."""
+
+    def check(values):
+        if len(values) != size:
+            return f"needs {size} values (got {len(values)})"
+        for i, value in enumerate(values):
+            problem = element(value)
+            if problem:
+                return f"[{i}] {problem}"
+        return None
+
+    return check
+
+
+def one_of(*choices: str) -> Check:
+    def check(value):
+        return None if value in choices else f"{value!r} is not one of {', '.join(choices)}"
+
+    return check
+
+
+def _distribution(value):
     from tt_drake.serves import DISTRIBUTIONS
 
+    return one_of(*DISTRIBUTIONS)(value)
+
+
+def _integration_scheme(value):
+    from pydrake.systems.analysis import GetIntegrationSchemes
+
+    return one_of(*GetIntegrationSchemes())(value)
+
+
+def check_model_file(name: str) -> str | None:
+    """A model file that exists and is well-formed XML (URDF and SDFormat both are)."""
+    import xml.etree.ElementTree as ET
+
+    from tt_drake.systems.world import ModelFileError, model_path
+
+    try:
+        path = model_path(name)
+        ET.parse(path)
+    except ModelFileError as err:
+        return str(err)
+    except (ET.ParseError, OSError, UnicodeDecodeError) as err:
+        return f"malformed model file {name}: {' '.join(str(err).split())}"
+    return None
+
+
+MAX_RATE = 10_000.0  # Hz: a referee (and its arm loggers) faster than this is no table-tennis rate
+
+FIELD_RULES: dict[str, Check] = {
+    "world.plant.time_step": number(minimum=0.0, maximum=0.01),
+    "world.plant.penetration_allowance": number(above=0.0),
+    "world.plant.stiction_tolerance": number(above=0.0),
+    "world.plant.contact_model": one_of("point", "hydroelastic", "hydroelastic_with_fallback"),
+    "world.plant.discrete_contact_approximation": one_of("", "tamsi", "sap", "similar", "lagged"),
+    "world.plant.sap_near_rigid_threshold": number(minimum=0.0),
+    "world.plant.contact_surface_representation": one_of("triangle", "polygon"),
+    "world.simulator.integration_scheme": _integration_scheme,
+    "world.simulator.max_step_size": number(above=0.0, maximum=0.1),
+    "world.simulator.accuracy": number(above=0.0, maximum=1.0),
+    "world.simulator.start_time": number(minimum=0.0),
+    "world.simulator.target_realtime_rate": number(minimum=0.0),
+    "world.models.table": check_model_file,
+    "world.models.ball": check_model_file,
+    "world.models.robot": check_model_file,
+    "launcher.distribution": _distribution,
+    "launcher.spin_max": number(minimum=0.0),
+    "aerodynamics.drag_k": number(minimum=0.0),
+    "aerodynamics.magnus_cl": number(minimum=0.0),
+    "referee.target_x": number(),
+    "referee.target_y": number(),
+    "referee.target_radius": number(above=0.0),
+    "referee.reward_sigma": number(above=0.0),
+    "referee.velocity_jump": number(above=0.0),
+    "referee.racket_reach": number(above=0.0),
+    "referee_rate": number(above=0.0, maximum=MAX_RATE),
+    "controller.kp": each(7, number(minimum=0.0)),
+    "controller.ki": each(7, number(minimum=0.0)),
+    "controller.kd": each(7, number(minimum=0.0)),
+    "after_crossing": number(above=0.0, maximum=60.0),
+}
+
+
+def _field(scenario: Scenario, path: str):
+    value = scenario
+    for name in path.split("."):
+        value = getattr(value, name)
+    return value
+
+
+def validate(scenario: Scenario, origin: object = "scenario") -> None:
+    """Check every field of :data:`FIELD_RULES` (finite, sign, range, choices, model files);
+    raise ScenarioError with one line naming each invalid field. Nothing invalid reaches Drake:
+    ``load_scenario`` and ``ServeDiagram`` call this before building anything."""
     problems = []
-    if scenario.launcher.distribution not in DISTRIBUTIONS:
-        problems.append(f"launcher.distribution {scenario.launcher.distribution!r} is not one of "
-                        f"{', '.join(DISTRIBUTIONS)}")
-    if scenario.world.simulator.max_step_size <= 0:
-        problems.append("world.simulator.max_step_size must be > 0")
-    if scenario.referee_rate <= 0:
-        problems.append("referee_rate must be > 0")
-    if scenario.after_crossing <= 0:
-        problems.append("after_crossing must be > 0")
-    for gains in ("kp", "ki", "kd"):
-        if len(getattr(scenario.controller, gains)) != 7:
-            problems.append(f"controller.{gains} needs 7 values")
+    for path, check in FIELD_RULES.items():
+        if path == "world.models.robot" and not scenario.world.with_robot:
+            continue
+        try:
+            value = _field(scenario, path)
+        except AttributeError:
+            continue  # a field of a newer config that this scenario object does not have
+        problem = check(value)
+        if problem:
+            problems.append(f"{path} {problem}")
     if problems:
         raise ScenarioError(f"invalid scenario {origin}: " + "; ".join(problems))
 

@@ -4,7 +4,7 @@ import sys
 
 from tqdm import tqdm
 
-from tt_drake.diagrams.episodes import ServeDiagram, episode_seed, summarize
+from tt_drake.diagrams.episodes import ServeDiagram, check_run, episode_seed, summarize
 from tt_drake.diagrams.scenario import Scenario, dump_scenario
 from tt_drake.outputs import check_writable, write_json_atomic, write_text_atomic
 from tt_drake.provenance import run_provenance
@@ -19,6 +19,7 @@ def run_serves(scenario: Scenario, player: str, serves: int, seed: int, html: st
     recording lives in this process's Meshcat). ``html``: a Meshcat recording of the episodes
     played one after the other; recording is observation only (the episodes and their results
     are those of the same command without ``html``)."""
+    check_run(seed, serves)
     for path in (html, json_path):
         if path:
             check_writable(path)
@@ -92,7 +93,7 @@ def scenario_dict(scenario: Scenario) -> dict:
 def _run_parallel(scenario, player, serves, seed, json_path, progress, workers) -> dict:
     from tt_drake.diagrams.parallel import run_episodes
 
-    seeds = [episode_seed(seed, i) for i in range(serves)]
+    seeds = (episode_seed(seed, i) for i in range(serves))  # streamed, not listed
     results = []
     bar = tqdm(total=serves, desc=f"serving ({player}, {workers} workers)", unit="serve",
                file=sys.stderr, disable=not progress)

@@ -79,13 +79,20 @@ def add_world(builder: DiagramBuilder, config: WorldConfig | None = None) -> Wor
     config = config or WorldConfig()
     plant, scene_graph = AddMultibodyPlant(config.plant, builder)
     parser = Parser(plant)
-    (table,) = parser.AddModels(str(model_path(config.models.table)))
-    (ball,) = parser.AddModels(str(model_path(config.models.ball)))
-    robot = None
-    if config.with_robot:
-        from tt_drake.systems.wam import add_wam
+    table = ball = robot = None
+    name = config.models.table
+    try:  # Drake's parser errors on a file that parses as XML but is no valid model: one line
+        (table,) = parser.AddModels(str(model_path(name)))
+        name = config.models.ball
+        (ball,) = parser.AddModels(str(model_path(name)))
+        if config.with_robot:
+            from tt_drake.systems.wam import add_wam
 
-        robot = add_wam(plant, urdf=model_path(config.models.robot))
+            name = config.models.robot
+            robot = add_wam(plant, urdf=model_path(name))
+    except (RuntimeError, ValueError) as err:
+        first = next((line for line in str(err).splitlines() if line.strip()), type(err).__name__)
+        raise ModelFileError(f"cannot load model file {name}: {first.strip()}") from None
     plant.Finalize()
     return World(plant, scene_graph, table, ball, robot)
 

@@ -7,18 +7,24 @@ reserved name ``__meta__``)::
      "arrays": {name: {"dtype": ..., "shape": [...], "sha256": ...}}, "meta": {...caller's...}}
 
 Loading uses ``np.load(..., allow_pickle=False)`` and checks everything it can: the file is a zip,
-the metadata parses, format / kind / version match, every listed array is present with its
-dtype, shape and checksum. Any failure raises :class:`ArtefactError` (a ``ValueError``) naming the
-file and the problem. Files are written atomically (temporary file in the same folder, then
-``os.replace``), so a crash never leaves a half-written artefact under the final name.
+every member's ``.npy`` header declares no more bytes than the member holds (and the artefact no
+more than :data:`MAX_ARTEFACT_BYTES`) before any array is read, the metadata parses, format /
+kind / version match, every listed array is present with its dtype, shape and checksum, and every
+floating-point array is finite (except those the caller names in ``allow_nonfinite``). Any
+failure raises :class:`ArtefactError` (a ``ValueError``) naming the file and the problem. Files
+are written atomically (temporary file in the same folder, then ``os.replace``), so a crash never
+leaves a half-written artefact under the final name.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import zipfile
+import zlib
+from collections.abc import Collection
 from pathlib import Path
 from typing import Any
 
@@ -26,11 +32,14 @@ import numpy as np
 
 from tt_drake.outputs import atomic_file
 
-__all__ = ["ArtefactError", "FORMAT", "FORMAT_VERSION", "save_artefact", "load_artefact"]
+__all__ = ["ArtefactError", "FORMAT", "FORMAT_VERSION", "save_artefact", "load_artefact",
+           "check_npz_sizes"]
 
 FORMAT = "tt-drake-artefact"
 FORMAT_VERSION = 1
 _META_KEY = "__meta__"
+#: The most bytes the arrays of one artefact may declare (the largest shipped one holds ~2 MB).
+MAX_ARTEFACT_BYTES = 1 << 30
 
 
 class ArtefactError(ValueError):
@@ -83,13 +92,59 @@ def save_artefact(
     return path
 
 
+def check_npz_sizes(path: str | os.PathLike) -> None:
+    """Raise :class:`ArtefactError` if an ``.npz`` file's members declare more bytes than they
+    hold (or than :data:`MAX_ARTEFACT_BYTES` in all), reading only their headers."""
+    path = Path(path)
+    try:
+        _check_declared_sizes(path, lambda msg: ArtefactError(f"{path}: {msg}"))
+    except ArtefactError:
+        raise
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError,
+            NotImplementedError) as exc:
+        raise ArtefactError(f"{path}: corrupt or truncated file ({type(exc).__name__}: "
+                            f"{exc})") from None
+
+
+def _check_declared_sizes(path: Path, fail) -> None:
+    """Read each member's ``.npy`` header (not its data): refuse a member whose declared shape
+    and dtype need more bytes than it holds, object arrays, and artefacts declaring more than
+    :data:`MAX_ARTEFACT_BYTES` in all; so a small file claiming a huge array is never read."""
+    from numpy.lib import format as npy
+
+    total = 0
+    with zipfile.ZipFile(path) as zf:
+        for info in zf.infolist():
+            with zf.open(info) as f:
+                version = npy.read_magic(f)
+                if version == (1, 0):
+                    shape, _, dtype = npy.read_array_header_1_0(f)
+                elif version == (2, 0):
+                    shape, _, dtype = npy.read_array_header_2_0(f)
+                else:
+                    raise fail(f"member {info.filename!r} has .npy format {version}")
+                header = f.tell()
+            if dtype.hasobject:
+                raise fail(f"member {info.filename!r} holds objects (would need pickle)")
+            declared = math.prod(shape) * dtype.itemsize
+            if declared != info.file_size - header:
+                raise fail(f"member {info.filename!r} declares {list(shape)} {dtype.str} "
+                           f"({declared} bytes) but holds {info.file_size - header} bytes")
+            total += declared
+            if total > MAX_ARTEFACT_BYTES:
+                raise fail(f"declares more than {MAX_ARTEFACT_BYTES} bytes of arrays")
+
+
 def load_artefact(
-    path: str | os.PathLike, kind: str, *, max_version: int = FORMAT_VERSION
+    path: str | os.PathLike, kind: str, *, max_version: int = FORMAT_VERSION,
+    allow_nonfinite: Collection[str] = (),
 ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """Load an artefact written by :func:`save_artefact`; returns ``(arrays, meta)``.
 
     Raises :class:`ArtefactError` if the file is missing, not an artefact, corrupt or truncated,
-    of another ``kind``, or of a newer format version than ``max_version``.
+    declares arrays larger than it holds, of another ``kind``, of a newer format version than
+    ``max_version``, or has a NaN or infinite value in a floating-point array not named in
+    ``allow_nonfinite`` (arrays that use NaN for "not available").
     """
     path = Path(path)
 
@@ -99,6 +154,8 @@ def load_artefact(
     if not path.is_file():
         raise fail("no such artefact file")
     try:
+        if zipfile.is_zipfile(path):
+            _check_declared_sizes(path, fail)
         loaded = np.load(path, allow_pickle=False)
         if not isinstance(loaded, np.lib.npyio.NpzFile):
             raise fail(f"not a {FORMAT} file (a bare .npy array)")
@@ -132,10 +189,14 @@ def load_artefact(
                     )
                 if _digest(a) != spec.get("sha256"):
                     raise fail(f"array {name!r} fails its checksum (corrupt file)")
+                if (a.dtype.kind in "fc" and name not in allow_nonfinite
+                        and not np.all(np.isfinite(a))):
+                    raise fail(f"array {name!r} holds NaN or infinite values")
                 arrays[name] = a
     except ArtefactError:
         raise
-    except (zipfile.BadZipFile, EOFError, OSError, KeyError, ValueError, UnicodeDecodeError) as exc:
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, KeyError, ValueError,
+            UnicodeDecodeError, NotImplementedError) as exc:
         # zipfile CRC errors, truncated members, bad JSON (a ValueError), pickled content
         raise fail(f"corrupt or truncated file ({type(exc).__name__}: {exc})") from exc
     meta = doc.get("meta", {})

@@ -213,3 +213,8 @@ PLANES = Planes()
 HITTING_REGION = HittingRegion()
 TARGET = LandingTarget()
 CONTACT = Contact()
+
+#: Runs: base seeds are whole numbers in [0, MAX_SEED]; a run has at most MAX_SERVES serves (its
+#: per-serve results are kept for the summary, ~2 kB each).
+MAX_SEED = 2**32 - 1
+MAX_SERVES = 100_000

@@ -73,8 +73,8 @@ class CrKR:
     _alpha: FloatArray | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
-        if self.lam <= 0:
-            raise ValueError("lam must be positive")
+        if not (self.lam > 0 and np.isfinite(self.lam)):
+            raise ValueError("lam must be finite and positive")
         self.bandwidths = np.atleast_1d(np.asarray(self.bandwidths, dtype=float)).copy()
         if np.any(self.bandwidths <= 0):
             raise ValueError("bandwidths must be positive")

@@ -284,6 +284,13 @@ class HittingPointGPR:
             raise PredictorFileError(f"{path}: malformed predictor ({err})") from None
         if d != FEATURE_SIZE:
             raise PredictorFileError(f"{path}: {d} features, this code uses {FEATURE_SIZE}")
+        # Scales and kernel parameters divide or weigh every prediction: strictly positive.
+        for name in ("x_scale", "length_scales", "signal_var", "y_scale"):
+            if not np.all(arrays[name] > 0):
+                raise PredictorFileError(f"{path}: array {name!r} must be > 0 everywhere")
+        exact = meta.get("exact_value")
+        if isinstance(exact, bool) or not isinstance(exact, (int, float)) or not np.isfinite(exact):
+            raise PredictorFileError(f"{path}: exact_value must be a finite number")
         gpr = cls(arrays["x_mean"], arrays["x_scale"], arrays["train_x"],
                   arrays["length_scales"], arrays["signal_var"], arrays["alpha"],
                   arrays["y_mean"], arrays["y_scale"], exact_value=meta.get("exact_value"),

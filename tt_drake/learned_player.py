@@ -339,6 +339,10 @@ def load_player_library(path, scenario: str | None = None, hitting_y: float | No
         for prim in stages.values():
             if prim.weights.shape != library.weights.shape[1:]:
                 raise ValueError("stage DMP weights do not match the library's")
+            if prim.amplitude.shape != library.amplitude.shape[1:]:
+                raise ValueError("stage DMP amplitudes do not match the library's")
+            if not (math.isfinite(prim.tau) and prim.tau > 0):
+                raise ValueError("stage durations must be finite and > 0")
     except (KeyError, TypeError, ValueError) as exc:
         raise LearnedArtefactError(f"{path}: inconsistent primitive library ({exc})") from None
     return library, stages, meta
