@@ -8,8 +8,9 @@ Frame (DESIGN.md): SI units; world origin on the floor under the table centre, z
 the table from the robot's end to the launcher's end, x completing a right-handed frame, so +x is
 the robot's forehand (right-hand) side.
 
-Sources are in ``../shared/reference/facts.md``: ITTF Laws 2.1-2.3 for table, net and ball; the
-MPI table-tennis simulator (RobotLearning/optimpoly) for drag, Magnus and the lab's layout.
+Sources: ITTF Laws 2.1-2.3 for table, net and ball; the MPI table-tennis simulator
+(RobotLearning/optimpoly) for drag, Magnus and the lab's layout; the Barrett WAM manual and
+inertial specification AC-02 for the arm (``tt_drake/wam_params.py``).
 """
 
 from __future__ import annotations
