@@ -37,7 +37,8 @@ the outcome without playing the action.
 ``tt_drake/ReturnBallStep-v0`` (:class:`ReturnBallStepEnv`): step-based, on Drake's
 ``pydrake.gym.DrakeGymEnv``. The agent moves the arm's joint set-points at ``control_rate`` Hz
 (default 100) through :class:`tt_drake.systems.gym_players.SetpointIncrementPlayer`; the
-InverseDynamicsController tracks them as it tracks the players'.
+InverseDynamicsController tracks them as it tracks the players'. A step's action takes effect one
+servo tick (2 ms) into the step and lasts one control period.
 
 - observation (22): the arm's state q (rad), q_dot (rad/s); the estimator's ball state p (m),
   v (m/s) (zeros until it tracks the ball), its status: tracking (0/1) and the time of the
@@ -75,6 +76,7 @@ from tt_drake.systems.gym_players import (
 )
 from tt_drake.systems.wam import add_servo_hold
 from tt_drake.systems.world import set_ball_state
+from tt_drake.wam_params import SERVO_PERIOD
 
 OBSERVATION_FIELDS = ("p_hit_x", "p_hit_y", "p_hit_z", "v_hit_x", "v_hit_y", "v_hit_z",
                       "time_to_hit", "spin_x", "spin_y", "spin_z")
@@ -165,7 +167,8 @@ class ReturnBallEnv(gym.Env):
         t_end = result.predicted_crossing[6] + self.scenario.after_crossing
         self._episode = {"seed": serve_seed, "committed": bool(state.committed), "t_end": t_end,
                          "observation": observation}
-        return observation.copy(), {"serve_seed": serve_seed, "committed": state.committed}
+        return observation.copy(), {"serve_seed": serve_seed, "committed": state.committed,
+                                    "time": context.get_time()}
 
     def step(self, action):
         if self._episode is None:
@@ -188,7 +191,8 @@ def _setpoint_player(builder, world, controller, scenario: Scenario, rate: float
     diagram's ``actions`` input and ``observations`` output."""
     camera, estimator = add_vision(builder, world, scenario)
     player = builder.AddNamedSystem("setpoint_player",
-                                    SetpointIncrementPlayer(rate, setpoint_lead=SETPOINT_LEAD))
+                                    SetpointIncrementPlayer(rate, setpoint_lead=SETPOINT_LEAD,
+                                                            offset=SERVO_PERIOD))
     builder.ExportInput(player.GetInputPort("increment"), "actions")
     add_servo_hold(builder, player.GetOutputPort("desired_state"),
                    player.GetOutputPort("desired_acceleration"), controller)

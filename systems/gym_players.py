@@ -82,11 +82,17 @@ class SetpointIncrementPlayer(LeafSystem):
     the period: a = +-1 moves the set-point at the WAM's speed limit. The set-point starts at the
     awaiting posture.
 
+    The updates happen at k / rate + ``offset``. A Gymnasium step advances the simulation from
+    t to t + 1 / rate in floating point: with ``offset`` = 0 an update can fall on either side of
+    a step's end, so that the environment uses one servo tick as the offset (every step then
+    holds exactly one update, reading that step's action).
+
     The discrete state is (t_k, q_k, dq); the outputs evaluate it at ``t + setpoint_lead`` with
     plain floats (O(1)), as the stage players.
     """
 
-    def __init__(self, rate: float, setpoint_lead: float = 0.0, max_increment=None):
+    def __init__(self, rate: float, setpoint_lead: float = 0.0, max_increment=None,
+                 offset: float = 0.0):
         super().__init__()
         self.rate = float(rate)
         self.setpoint_lead = float(setpoint_lead)
@@ -98,7 +104,7 @@ class SetpointIncrementPlayer(LeafSystem):
         self._action = self.DeclareVectorInputPort("increment", 7)
         x0 = np.r_[0.0, np.asarray(wp.AWAITING, dtype=float), np.zeros(7)]
         self._xd = self.DeclareDiscreteState(x0)
-        self.DeclarePeriodicDiscreteUpdateEvent(1.0 / self.rate, 0.0, self._update)
+        self.DeclarePeriodicDiscreteUpdateEvent(1.0 / self.rate, float(offset), self._update)
         deps = {self.xd_ticket()}
         self.DeclareVectorOutputPort("desired_state", BasicVector(14), self._calc_state,
                                      prerequisites_of_calc=deps)
