@@ -82,6 +82,7 @@ OBSERVATION_FIELDS = ("p_hit_x", "p_hit_y", "p_hit_z", "v_hit_x", "v_hit_y", "v_
                       "time_to_hit", "spin_x", "spin_y", "spin_z")
 #: Bounds of ReturnBall-v0's observation (time to hit from 0): observations are clipped to them.
 OBSERVATION_HIGH = np.r_[np.full(3, 5.0), np.full(3, 50.0), 5.0, np.full(3, 1000.0)]
+OBSERVATION_LOW = np.r_[-OBSERVATION_HIGH[:6], 0.0, -OBSERVATION_HIGH[7:]]
 STEP_OBSERVATION_FIELDS = (tuple(f"q{i}" for i in range(1, 8))
                            + tuple(f"qd{i}" for i in range(1, 8))
                            + ("ball_x", "ball_y", "ball_z", "ball_vx", "ball_vy", "ball_vz",
@@ -91,12 +92,15 @@ STEP_OBSERVATION_FIELDS = (tuple(f"q{i}" for i in range(1, 8))
 def make_scenario(scenario: str | Scenario = "default", distribution: str | None = None
                   ) -> Scenario:
     """The scenario the options name: a Scenario, or a name/path for :func:`load_scenario`, with
-    the launcher's distribution replaced by ``distribution`` (checked: ScenarioError)."""
+    the launcher's distribution replaced by ``distribution`` (checked: ScenarioError; a world
+    without the robot: ValueError)."""
     base = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
     if distribution is not None:
         launcher = dataclasses.replace(base.launcher, distribution=distribution)
         base = dataclasses.replace(base, launcher=launcher)
     validate(base)
+    if not base.world.with_robot:
+        raise ValueError("the Gymnasium environments need a scenario with the robot")
     return base
 
 
@@ -146,9 +150,8 @@ class ReturnBallEnv(gym.Env):
         self.scale = np.r_[np.full(7, float(max_position_offset)),
                            np.full(7, float(max_velocity_offset))]
         self.action_space = gym.spaces.Box(-1.0, 1.0, (14,), dtype=np.float64)
-        self.observation_space = gym.spaces.Box(-OBSERVATION_HIGH, OBSERVATION_HIGH,
+        self.observation_space = gym.spaces.Box(OBSERVATION_LOW, OBSERVATION_HIGH,
                                                 dtype=np.float64)
-        self.observation_space.low[6] = 0.0
         self._episode = None
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -163,7 +166,7 @@ class ReturnBallEnv(gym.Env):
         if state.committed:
             s = state.stroke
             observation = np.r_[s.p_hit, s.v_hit, s.t_hit - context.get_time(), s.spin]
-            observation = np.clip(observation, self.observation_space.low, OBSERVATION_HIGH)
+            observation = np.clip(observation, OBSERVATION_LOW, OBSERVATION_HIGH)
         t_end = result.predicted_crossing[6] + self.scenario.after_crossing
         self._episode = {"seed": serve_seed, "committed": bool(state.committed), "t_end": t_end,
                          "observation": observation}
@@ -220,8 +223,6 @@ class ReturnBallStepEnv(DrakeGymEnv):
             raise ValueError(f"control_rate must be >= 50 Hz and divide the {SERVO_RATE:g} Hz "
                              f"servo rate, not {control_rate}")
         self.scenario = make_scenario(scenario, distribution)
-        if not self.scenario.world.with_robot:
-            raise ValueError("ReturnBallStep-v0 needs a scenario with the robot")
         add_player = functools.partial(_setpoint_player, rate=float(control_rate))
         self.serve_diagram = ServeDiagram(self.scenario, player=add_player)
         self._initial = self.serve_diagram.context.Clone()

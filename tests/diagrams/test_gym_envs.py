@@ -133,3 +133,47 @@ def test_bad_options_fail_clearly():
         gymnasium.make("tt_drake/ReturnBallStep-v0", control_rate=30.0)
     with pytest.raises(ValueError, match="render_mode"):
         ReturnBallEnv(render_mode="human")
+
+
+def _example(name):
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    folder = Path(__file__).resolve().parents[2] / "docs" / "examples"
+    sys.path.insert(0, str(folder))
+    try:
+        spec = importlib.util.spec_from_file_location(f"example_{name}", folder / f"{name}.py")
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+    finally:
+        sys.path.remove(str(folder))
+    return module
+
+
+def test_gym_examples_write_their_curves_and_reject_bad_options(tmp_path, capsys):
+    import json
+
+    random_policy, cmaes = _example("gym_random"), _example("gym_cmaes")
+    out = str(tmp_path / "random")
+    assert random_policy.main(["--episodes", "1", "--seed", "3", "--out", out]) == 0
+    result = json.loads((tmp_path / "random.json").read_text())
+    assert result["analytical"]["serve_seeds"] == result["random"]["serve_seeds"]
+    assert result["analytical"]["successes"] == [True]  # action 0: the teacher's return
+    assert (tmp_path / "random.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    out2 = str(tmp_path / "cmaes")
+    assert cmaes.main(["--episodes", "2", "--popsize", "2", "--serves", "1", "--eval-episodes",
+                       "1", "--seed", "3", "--random-json", out + ".json", "--out", out2]) == 0
+    run = json.loads((tmp_path / "cmaes.json").read_text())
+    assert [h["episodes"] for h in run["history"]] == [2]
+    assert run["final"]["serve_seeds"] == result["random"]["serve_seeds"]  # same serves
+    assert (tmp_path / "cmaes.png").stat().st_size > 0
+    (tmp_path / "cmaes.png").unlink()
+    assert cmaes.main(["--replot", "--random-json", out + ".json", "--out", out2]) == 0
+    assert (tmp_path / "cmaes.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    capsys.readouterr()
+    bad = str(tmp_path / "bad")
+    assert cmaes.main(["--episodes", "1", "--popsize", "2", "--out", bad]) == 2
+    assert random_policy.main(["--episodes", "0", "--out", bad]) == 2
+    assert capsys.readouterr().err.count("\n") == 2
+    assert not list(tmp_path.glob("bad*"))
