@@ -18,7 +18,7 @@ constant offset is then a complete policy. On the ``default`` distribution a con
 must suit every serve at once, and the best one is 0.
 
     python docs/examples/gym_cmaes.py --episodes 200 --seed 0 --distribution fixed \
-        --random-json docs/img/gym_random.json --out docs/img/gym_cmaes
+        --random-json docs/img/gym_random.json --out docs/img/gym_learning_curve
 
 writes ``<out>.json`` (per-generation rates, the final evaluation) and ``<out>.png`` (the
 learning curve, with the random policy's and the analytical player's rates from
@@ -100,8 +100,8 @@ def plot(path: str, history: list[dict], final: dict, baseline: dict | None, tit
             label="CMA-ES: success of the generation's episodes")
     ax.plot(x, [h["mean_reward"] for h in history], "s--", ms=3, alpha=0.6,
             label="CMA-ES: mean reward of the generation")
-    ax.plot(x, [h["policy_mean_reward"] for h in history], "^:", ms=3, alpha=0.8,
-            label="CMA-ES: reward of the distribution's mean")
+    ax.plot(x, [h["policy_mean_reward"] for h in history], "^-", ms=3, color="tab:purple",
+            alpha=0.7, label="CMA-ES: reward of the distribution's mean")
     ax.plot([x[-1]], [final["success_rate"]], "r*", ms=12,
             label=f"CMA-ES mean, evaluated: {final['success_rate']:.0%}")
     if baseline is not None:
@@ -115,7 +115,7 @@ def plot(path: str, history: list[dict], final: dict, baseline: dict | None, tit
     ax.set_ylim(-0.02, 1.05)
     ax.set_title(title, fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="center right")
+    ax.legend(fontsize=7, loc="lower right")
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
