@@ -226,6 +226,7 @@ class ReturnBallStepEnv(DrakeGymEnv):
         add_player = functools.partial(_setpoint_player, rate=float(control_rate))
         self.serve_diagram = ServeDiagram(self.scenario, player=add_player)
         self._initial = self.serve_diagram.context.Clone()
+        self.metadata = {"render_modes": []}  # DrakeGymEnv adds modes to it; not to the class's
         super().__init__(simulator=self.serve_diagram.simulator, time_step=1.0 / control_rate,
                          action_space=gym.spaces.Box(-1.0, 1.0, (7,), dtype=np.float64),
                          observation_space=gym.spaces.Box(StepObservation.low,
@@ -234,7 +235,7 @@ class ReturnBallStepEnv(DrakeGymEnv):
                          reward=lambda system, context: 0.0, action_port_id="actions",
                          observation_port_id="observations", reset_handler=self._start_serve,
                          render_mode=None)
-        self.metadata = {"render_modes": []}  # DrakeGymEnv lists modes it cannot serve here
+        self.metadata = {"render_modes": []}  # those modes need a visualizer in the diagram
         self._options = None
         self._serve_seed = None
         self._t_end = np.inf
