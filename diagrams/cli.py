@@ -6,10 +6,11 @@
     tt-drake collect --player analytical --serves N --seed S --out DIR [--workers W]
     tt-drake models  (rewrite the generated model files in models/)
     tt-drake train library|crkr --data DIR --out FILE [--primitives 300] [--samples 2500]
-    tt-drake serve --player momp --library FILE [--crkr FILE] [--predictor FILE]
-                   [--configuration crkr|analytical] ...
-    tt-drake serve --player crkr --crkr FILE [--predictor FILE] ...   (CrKR + teacher's quintics)
+    tt-drake serve --player momp [--library FILE --crkr FILE --predictor FILE]
+                   [--configuration crkr|analytical] ...   (no FILE: the shipped artefacts)
+    tt-drake serve --player crkr [--crkr FILE --predictor FILE] ...  (CrKR + teacher's quintics)
     tt-drake reproduce --out DIR [--quick] [--workers N] [--executor local|ray]
+    tt-drake --version
 
 Bad input (an unknown or malformed scenario field, a missing model or data file, an unknown
 distribution or player, N <= 0, an unwritable output path) gives one line naming the problem on
@@ -18,12 +19,37 @@ stderr and exit status 2, with no traceback and no partial output file.
 
 import argparse
 import sys
+from collections.abc import Callable
 
 EXIT_BAD_INPUT = 2
 
 
 class CliError(Exception):
     """A user error: printed as one line, exit status 2."""
+
+
+# The names each option accepts (their registries import pydrake, too slow for --help; tests
+# check these equal tt_drake.diagrams.episodes.PLAYERS, tt_drake.systems.hitting_configuration.
+# SOURCES and tt_drake.diagrams.parallel.EXECUTORS).
+PLAYER_NAMES = ("idle", "analytical", "momp", "crkr")
+CONFIGURATION_NAMES = ("crkr", "analytical")
+EXECUTOR_NAMES = ("local", "ray")
+
+
+class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Shows every option's default, except the empty ones (no file, off, none)."""
+
+    def _get_help_string(self, action):
+        if action.default is None or action.default is False or action.default == "" \
+                or action.required:
+            return action.help
+        return super()._get_help_string(action)
+
+
+def _version() -> str:
+    from tt_drake.provenance import package_version
+
+    return f"tt-drake {package_version()}"
 
 
 def _positive_int(text: str) -> int:
@@ -36,88 +62,131 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _one_of(what: str, names: tuple[str, ...]) -> Callable[[str], str]:
+    """An argparse ``type`` accepting one of ``names``; the error names the value and the
+    choices (also given as ``choices=``, so that ``--help`` lists them)."""
+    def check(text: str) -> str:
+        if text not in names:
+            raise argparse.ArgumentTypeError(f"unknown {what} {text!r}; choose one of "
+                                             f"{', '.join(names)}")
+        return text
+    check.__name__ = what
+    return check
+
+
+def _distribution(text: str) -> str:
+    from tt_drake.serves import DISTRIBUTIONS
+
+    if text not in DISTRIBUTIONS:
+        raise argparse.ArgumentTypeError(f"serve distribution {text!r} is not one of "
+                                         f"{', '.join(DISTRIBUTIONS)}")
+    return text
+
+
 def _add_scenario_options(p: argparse.ArgumentParser) -> None:
+    from tt_drake.serves import DISTRIBUTIONS
+
     p.add_argument("--scenario", default="default",
-                   help="scenario name (models/<name>.yaml) or YAML path (default: default)")
-    p.add_argument("--distribution", default=None,
-                   help="override the launcher's serve distribution: default, real or fixed")
+                   help="scenario name (models/<name>.yaml) or YAML path")
+    p.add_argument("--distribution", default=None, type=_distribution, choices=DISTRIBUTIONS,
+                   help="override the launcher's serve distribution (default: the scenario's)")
 
 
 def _add_learned_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--library", default="", help="momp player: primitive library (train library)")
-    p.add_argument("--crkr", default="", help="momp player: CrKR model (train crkr)")
+    p.add_argument("--library", default="",
+                   help="momp player: primitive library (tt-drake train library). With none of "
+                        "--library, --crkr, --predictor (and none in the scenario) the learned "
+                        "players use the artefacts shipped in tt_drake/models/learned/")
+    p.add_argument("--crkr", default="", help="learned players: CrKR model (tt-drake train crkr)")
     p.add_argument("--predictor", default="",
-                   help="momp player: GPR predictor (train-predictor; default: physical model)")
+                   help="learned players: GPR predictor (tt-drake train-predictor); not given "
+                        "with --library or --crkr: the physical model")
     p.add_argument("--configuration", default="crkr",
-                   help="momp player: hitting configuration from crkr (default) or analytical")
+                   type=_one_of("hitting configuration", CONFIGURATION_NAMES),
+                   choices=CONFIGURATION_NAMES,
+                   help="learned players: hitting configuration from the CrKR model or the "
+                        "analytical IK")
+
+
+def _add_player_option(p: argparse.ArgumentParser, default: str | None) -> None:
+    p.add_argument("--player", default=default, type=_one_of("player", PLAYER_NAMES),
+                   choices=PLAYER_NAMES,
+                   help="which player returns the serves" + ("" if default else
+                                                             " (default: idle, which never "
+                                                             "swings)"))
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="tt-drake", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(prog="tt-drake", description=__doc__.split("\n")[0],
+                                     formatter_class=_HelpFormatter)
+    parser.add_argument("--version", action="version", version=_version())
     sub = parser.add_subparsers(dest="command", required=True)
 
-    serve = sub.add_parser("serve", help="serve balls at a player and report what happened")
-    serve.add_argument("--player", default="idle", help="which player returns the serves")
+    def command(name: str, **kwargs) -> argparse.ArgumentParser:
+        return sub.add_parser(name, formatter_class=_HelpFormatter, **kwargs)
+
+    serve = command("serve", help="serve balls at a player and report what happened")
+    _add_player_option(serve, None)
     serve.add_argument("--serves", type=_positive_int, default=10, help="number of serves")
     serve.add_argument("--seed", type=int, default=0, help="base seed of the run")
     serve.add_argument("--html", default=None, help="write a self-contained Meshcat recording")
     serve.add_argument("--json", default=None, help="write the summary and one record per serve")
     serve.add_argument("--quiet", action="store_true", help="no progress bar")
     serve.add_argument("--workers", type=_positive_int, default=1,
-                       help="parallel worker processes (not with --html; default 1)")
+                       help="parallel worker processes (not with --html)")
     _add_scenario_options(serve)
     _add_learned_options(serve)
 
-    bench = sub.add_parser("bench", help="time serve episodes against a C++ reference diagram")
-    bench.add_argument("--serves", type=_positive_int, default=10)
-    bench.add_argument("--seed", type=int, default=0)
-    bench.add_argument("--player", default="idle")
+    bench = command("bench", help="time serve episodes against a C++ reference diagram")
+    bench.add_argument("--serves", type=_positive_int, default=10, help="number of serves")
+    bench.add_argument("--seed", type=int, default=0, help="base seed of the run")
+    _add_player_option(bench, "idle")
     bench.add_argument("--json", default=None, help="write the measurements as JSON")
     _add_scenario_options(bench)
     _add_learned_options(bench)
 
-    collect = sub.add_parser("collect", help="record teacher demonstrations (resumable)")
-    collect.add_argument("--player", default="analytical")
-    collect.add_argument("--serves", type=_positive_int, default=100)
-    collect.add_argument("--seed", type=int, default=0)
+    collect = command("collect", help="record teacher demonstrations (resumable)")
+    _add_player_option(collect, "analytical")
+    collect.add_argument("--serves", type=_positive_int, default=100, help="number of serves")
+    collect.add_argument("--seed", type=int, default=0, help="base seed of the run")
     collect.add_argument("--out", required=True, help="dataset folder (created, or resumed)")
     collect.add_argument("--workers", type=_positive_int, default=None,
                          help="parallel worker processes (default: all cores)")
     collect.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_scenario_options(collect)
 
-    sub.add_parser("models", help="rewrite the generated model files in models/")
+    command("models", help="rewrite the generated model files in models/")
 
-    learn = sub.add_parser("train", help="train the learned player's library or CrKR model")
-    learn.add_argument("artefact", choices=("library", "crkr"))
+    learn = command("train", help="train the learned player's library or CrKR model")
+    learn.add_argument("artefact", choices=("library", "crkr"), help="what to train")
     learn.add_argument("--data", required=True, help="teacher dataset folder (tt-drake collect)")
     learn.add_argument("--out", required=True, help="artefact file to write (.npz)")
     learn.add_argument("--primitives", type=_positive_int, default=300,
-                       help="library: at most this many hitting primitives (default 300)")
+                       help="library: at most this many hitting primitives")
     learn.add_argument("--samples", type=_positive_int, default=2500,
-                       help="crkr: at most this many teacher pairs (default 2500)")
+                       help="crkr: at most this many teacher pairs")
 
-    train = sub.add_parser("train-predictor", help="train the GPR hitting-point predictor")
-    train.add_argument("--serves", type=_positive_int, default=1000)
-    train.add_argument("--seed", type=int, default=0)
+    train = command("train-predictor", help="train the GPR hitting-point predictor")
+    train.add_argument("--serves", type=_positive_int, default=1000, help="training serves")
+    train.add_argument("--seed", type=int, default=0, help="base seed of the serves")
     train.add_argument("--out", required=True, help="predictor file to write (.npz)")
     train.add_argument("--quiet", action="store_true", help="no progress bar")
-    evalp = sub.add_parser("eval-predictor", help="GPR vs physical model on held-out serves")
+    evalp = command("eval-predictor", help="GPR vs physical model on held-out serves")
     evalp.add_argument("--model", required=True, help="predictor file from train-predictor")
-    evalp.add_argument("--serves", type=_positive_int, default=3500)
-    evalp.add_argument("--seed", type=int, default=1)
+    evalp.add_argument("--serves", type=_positive_int, default=3500, help="held-out serves")
+    evalp.add_argument("--seed", type=int, default=1, help="base seed of the serves")
     evalp.add_argument("--json", default=None, help="write the metrics as JSON")
     evalp.add_argument("--quiet", action="store_true", help="no progress bar")
 
-    rep = sub.add_parser("reproduce", help="the paper's experiments from nothing, with a report "
-                                           "(resumable)")
+    rep = command("reproduce", help="the paper's experiments from nothing, with a report "
+                                     "(resumable)")
     rep.add_argument("--out", required=True, help="run folder (created, or resumed)")
     rep.add_argument("--quick", action="store_true",
                      help="every stage on few serves (minutes; the CI run)")
     rep.add_argument("--workers", type=_positive_int, default=None,
                      help="parallel worker processes (default: all cores)")
-    rep.add_argument("--executor", default="local",
-                     help="where rollouts run: local (default) or ray")
+    rep.add_argument("--executor", default="local", type=_one_of("executor", EXECUTOR_NAMES),
+                     choices=EXECUTOR_NAMES, help="where rollouts run")
     rep.add_argument("--quiet", action="store_true", help="no progress output")
     return parser
 
@@ -132,10 +201,25 @@ def _scenario(args):
         learned.crkr = args.crkr or learned.crkr
         learned.predictor = args.predictor or learned.predictor
         learned.configuration = args.configuration
+        _use_shipped_artefacts(args.player, scenario)
     if args.distribution is not None:
         scenario.launcher.distribution = args.distribution
         validate(scenario, "--distribution")
     return scenario
+
+
+def _use_shipped_artefacts(player: str | None, scenario) -> None:
+    """A learned player given no artefact (none on the command line, none in the scenario)
+    plays with the ones shipped in tt_drake/models/learned/ (what ``make demo`` shows)."""
+    from tt_drake.models import shipped_artefact
+
+    learned = scenario.learned
+    if player not in ("momp", "crkr") or learned.library or learned.crkr or learned.predictor:
+        return
+    learned.library, learned.crkr, learned.predictor = (
+        str(shipped_artefact(kind)) for kind in ("library", "crkr", "predictor"))
+    print(f"tt-drake: the {player} player uses the shipped artefacts in "
+          f"{shipped_artefact('library').parent}", file=sys.stderr)
 
 
 def _check_player(name: str) -> None:
@@ -156,20 +240,28 @@ def _check_learned(player: str, scenario) -> None:
 def _serve(args) -> None:
     from tt_drake.diagrams.serve import format_summary, run_serves
 
-    _check_player(args.player)
+    chosen = args.player is not None
+    player = args.player = args.player or "idle"
+    _check_player(player)
     scenario = _scenario(args)
-    _check_learned(args.player, scenario)
-    data = run_serves(scenario, args.player, args.serves, args.seed, args.html, args.json,
+    _check_learned(player, scenario)
+    data = run_serves(scenario, player, args.serves, args.seed, args.html, args.json,
                       progress=not args.quiet, workers=args.workers)
     print(format_summary(data))
     for path in (args.json, args.html):
         if path:
             print(f"wrote {path}")
+    if not chosen:
+        print("tt-drake serve: no --player given, so this was the idle player: it holds its "
+              "posture and never swings (0 % returns is expected); try --player analytical or "
+              "--player momp", file=sys.stderr)
 
 
 def _bench(args) -> None:
     from tt_drake.diagrams.bench import format_bench, run_bench
+    from tt_drake.diagrams.serve import scenario_dict
     from tt_drake.outputs import check_writable, write_json_atomic
+    from tt_drake.provenance import run_provenance
 
     _check_player(args.player)
     scenario = _scenario(args)
@@ -179,16 +271,19 @@ def _bench(args) -> None:
     result = run_bench(scenario, args.serves, args.seed, args.player)
     print(format_bench(result))
     if args.json:
-        write_json_atomic(args.json, result)
+        write_json_atomic(args.json, {**run_provenance(), "scenario": scenario_dict(scenario),
+                                      **result})
         print(f"wrote {args.json}")
 
 
 def _collect(args) -> None:
     from tt_drake.diagrams.collect import collect
+    from tt_drake.diagrams.inputs import check_inputs
     from tt_drake.diagrams.parallel import default_workers
 
     _check_player(args.player)
     scenario = _scenario(args)
+    check_inputs(scenario)
     summary = collect(scenario, args.player, args.serves, args.seed, args.out,
                       args.workers or default_workers(), progress=not args.quiet)
     print(f"{summary['folder']}: {summary['serves']} serves ({summary['simulated']} simulated "

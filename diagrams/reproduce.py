@@ -41,7 +41,8 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from tt_drake.outputs import claim_folder, write_json_atomic
+from tt_drake.outputs import claim_folder, portable_path, write_json_atomic
+from tt_drake.provenance import run_provenance
 
 CHUNK = 100
 STAGES = ("teacher", "predictor", "library", "crkr", "single", "gamma1", "responsibility",
@@ -115,6 +116,17 @@ class Run:
         settings = {"format": "tt-drake-reproduce", "version": 1, "quick": self.quick,
                     "config": self.config.to_dict()}
         claim_folder(self.root, "config.json", settings, ReproduceError, "run")
+
+    def rel(self, path) -> str:
+        """``path`` as a stage result records it: relative to the run folder, so that results
+        hold no machine path and the folder can be moved."""
+        return portable_path(path, self.root)
+
+    def path(self, recorded: str) -> Path:
+        """The file a stage result names (relative to the run folder; runs made before this
+        recorded it as given on the command line)."""
+        inside = self.root / recorded
+        return inside if not Path(recorded).is_absolute() and inside.exists() else Path(recorded)
 
     def folder(self, stage: str) -> Path:
         path = self.root / stage
@@ -243,7 +255,9 @@ def stage_predictor(run: Run) -> dict:
                              progress=run.progress, keep_errors=True)
     errors = metrics.pop("errors")
     np.save(folder / "errors.npy", errors)
-    return {"model": str(model), "train": {k: train[k] for k in ("serves", "used", "skipped")},
+    write_json_atomic(folder / "eval.json", {**json.loads((folder / "eval.json").read_text()),
+                                             "model": run.rel(model)})
+    return {"model": run.rel(model), "train": {k: train[k] for k in ("serves", "used", "skipped")},
             "eval": {k: metrics[k] for k in ("serves", "used", "skipped", "gpr", "physical")},
             "max_nmse": max(r["nmse"] for r in metrics["gpr"] if r["nmse"] is not None),
             "command": f"tt-drake train-predictor --serves {c.predictor_train_serves} --seed "
@@ -257,7 +271,7 @@ def stage_library(run: Run) -> dict:
     c = run.config
     out = run.folder("library") / "library.npz"
     summary = train_library(run.root / "teacher" / "data", out, c.primitives)
-    return {"library": str(out), "primitives": summary["primitives"],
+    return {"library": run.rel(out), "primitives": summary["primitives"],
             "command": f"tt-drake train library --data DIR/teacher/data --primitives "
                        f"{c.primitives}"}
 
@@ -269,7 +283,7 @@ def stage_crkr(run: Run) -> dict:
 
     c = run.config
     folder = run.folder("crkr")
-    predictor = run.result("predictor")["model"]
+    predictor = str(run.path(run.result("predictor")["model"]))
     iterations = []
     best = None
     for k in range(1, c.crkr_max_iterations + 1):
@@ -285,7 +299,7 @@ def stage_crkr(run: Run) -> dict:
         episodes = run.rollouts(folder / f"iteration_{k}", run.scenario(crkr=str(model),
                                 predictor=predictor), "crkr", c.crkr_serves, c.crkr_seed + k,
                                 desc=f"CrKR iteration {k}")
-        iterations.append({"iteration": k, "model": str(model), "seed": c.crkr_seed + k,
+        iterations.append({"iteration": k, "model": run.rel(model), "seed": c.crkr_seed + k,
                            **rates(episodes), "episodes": episodes})
         run.say(f"  CrKR iteration {k}: return {iterations[-1]['return_rate']:.1%}, target "
                 f"{iterations[-1]['target_rate']:.1%}")
@@ -314,9 +328,10 @@ def _successful_pairs(episodes: list[dict], limit: int):
 
 
 def _learned(run: Run, configuration: str = "crkr", distribution: str | None = None):
-    return run.scenario(library=run.result("library")["library"], crkr=run.result("crkr")["best"],
-                        predictor=run.result("predictor")["model"], configuration=configuration,
-                        distribution=distribution)
+    return run.scenario(library=str(run.path(run.result("library")["library"])),
+                        crkr=str(run.path(run.result("crkr")["best"])),
+                        predictor=str(run.path(run.result("predictor")["model"])),
+                        configuration=configuration, distribution=distribution)
 
 
 def stage_single(run: Run) -> dict:
@@ -362,7 +377,7 @@ def stage_responsibility(run: Run) -> dict:
 
     c = run.config
     folder = run.folder("responsibility")
-    library, _, _ = load_player_library(run.result("library")["library"])
+    library, _, _ = load_player_library(run.path(run.result("library")["library"]))
     params = library.responsibility
     n = library.n_primitives
     state = {"s": np.zeros(n), "n": np.zeros(n), "gamma": np.ones(n), "batches": np.array(0),
@@ -411,7 +426,7 @@ def stage_responsibility(run: Run) -> dict:
     _save_learned_library(run, gamma, state, out)
     return {"curve": state["curve"].tolist(), "pruned": int(pruned.sum()), "primitives": n,
             "pruned_share": float(pruned.mean()), "pruned_earlier_return": earlier,
-            "library": str(out), "rollouts": c.responsibility_rollouts,
+            "library": run.rel(out), "rollouts": c.responsibility_rollouts,
             "threshold": params.threshold,
             "batch": c.responsibility_batch, "seed": c.responsibility_seed}
 
@@ -420,7 +435,7 @@ def _save_learned_library(run: Run, gamma, state, out) -> None:
     """The library with its learned responsibilities; pruned primitives removed."""
     from tt_drake.learned_player import load_player_library, save_player_library
 
-    library, stages, meta = load_player_library(run.result("library")["library"])
+    library, stages, meta = load_player_library(run.path(run.result("library")["library"]))
     library.gamma, library.s, library.n = gamma.copy(), state["s"].copy(), state["n"].copy()
     library.remove(np.flatnonzero(gamma == 0))
     meta = {k: v for k, v in meta.items() if k not in ("learned_format_version", "dmp",
@@ -436,7 +451,7 @@ def stage_final(run: Run) -> dict:
     for name, distribution, serves, seed in (("default", "default", c.final_serves, c.final_seed),
                                              ("real", "real", c.real_serves, c.real_seed)):
         scenario = _learned(run, distribution=distribution)
-        scenario.learned.library = library
+        scenario.learned.library = str(run.path(library))
         episodes = run.rollouts(run.folder("final") / name, scenario, "momp", serves, seed,
                                 desc=f"final player ({name} serves)")
         landings = [e["landing"] for e in episodes if e["landing"] is not None]
@@ -455,12 +470,13 @@ def _export_artefacts(run: Run, library: str) -> dict:
     sources = {"library.npz": library, "crkr.npz": run.result("crkr")["best"],
                "predictor.npz": run.result("predictor")["model"]}
     for name, source in sources.items():
-        shutil.copyfile(source, folder / f".{name}.tmp")
+        shutil.copyfile(run.path(source), folder / f".{name}.tmp")
         (folder / f".{name}.tmp").replace(folder / name)
     provenance = {"command": "tt-drake reproduce" + (" --quick" if run.quick else ""),
-                  "config": run.config.to_dict(), "sources": sources}
+                  "config": run.config.to_dict(), **run_provenance(),
+                  "sources": {name: run.rel(run.path(source)) for name, source in sources.items()}}
     write_json_atomic(folder / "provenance.json", provenance)
-    return {name: str(folder / name) for name in sources}
+    return {name: run.rel(folder / name) for name in sources}
 
 
 STAGE_FUNCTIONS = {"teacher": stage_teacher, "predictor": stage_predictor,
@@ -472,13 +488,18 @@ STAGE_FUNCTIONS = {"teacher": stage_teacher, "predictor": stage_predictor,
 def reproduce(out, quick: bool = False, workers: int | None = None, executor: str = "local",
               progress: bool = True, config: ReproduceConfig | None = None) -> dict:
     """Run the missing stages, then write the report; returns the report dict."""
+    from tt_drake.diagrams.inputs import check_inputs
     from tt_drake.diagrams.parallel import EXECUTORS, default_workers, executor_session
     from tt_drake.diagrams.report import write_report
+    from tt_drake.diagrams.scenario import load_scenario
 
     if executor not in EXECUTORS:
         raise ReproduceError(f"unknown executor {executor!r}; choose one of "
                              f"{', '.join(EXECUTORS)}")
     config = config or (quick_config() if quick else ReproduceConfig())
+    # Every file a stage will read, checked before the first stage: the final stage serves real
+    # ball states (serves.json) after hours of the others.
+    check_inputs(load_scenario("default"), distributions=("real",))
     run = Run(out, config, quick, workers or default_workers(), executor, progress)
     with executor_session(executor, run.workers):
         for k, stage in enumerate(STAGES, 1):

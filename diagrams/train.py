@@ -51,7 +51,7 @@ from tt_drake.learned_player import (
     save_player_library,
 )
 from tt_drake.momp import MotorPrimitiveLibrary, scott_bandwidths
-from tt_drake.outputs import check_writable
+from tt_drake.outputs import check_writable, portable_path
 from tt_drake.stages import AWAITING, FOLLOW_THROUGH, HITTING, PREPARATION, STAGES
 
 COST_FLOOR = 0.05  # rad^2
@@ -101,8 +101,9 @@ def _load(folder) -> dict:
 def _meta(data: dict, folder, used: int) -> dict:
     m = data["manifest"]
     return {"scenario": m["scenario"], "distribution": m["distribution"],
-            "hitting_y": PLANES.hitting_y, "dataset": str(folder), "dataset_seed": m["seed"],
-            "dataset_serves": m["serves"], "teacher": m["player"], "samples": int(used)}
+            "hitting_y": PLANES.hitting_y, "dataset": portable_path(folder),
+            "dataset_seed": m["seed"], "dataset_serves": m["serves"], "teacher": m["player"],
+            "samples": int(used)}
 
 
 def extract_strokes(data: dict, limit: int | None = None) -> dict:

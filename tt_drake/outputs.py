@@ -92,3 +92,17 @@ def claim_folder(folder: str | os.PathLike, manifest_name: str, manifest: dict,
         raise error(f"cannot create {folder}: {err}") from None
     write_json_atomic(path, manifest)
     return folder
+
+
+def portable_path(path: str | os.PathLike, root: str | os.PathLike | None = None) -> str:
+    """``path`` as a result or provenance file may record it, without this machine's folders:
+    relative to ``root`` (default: the working folder) when it lies inside it, a relative path
+    as given, otherwise the file's name alone."""
+    path = Path(path)
+    if not path.is_absolute():
+        return path.as_posix()
+    base = Path(root if root is not None else Path.cwd()).resolve()
+    resolved = path.resolve()
+    if resolved.is_relative_to(base):
+        return resolved.relative_to(base).as_posix()
+    return path.name

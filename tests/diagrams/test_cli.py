@@ -5,7 +5,9 @@ import json
 import re
 import subprocess
 import sys
+from pathlib import Path
 
+import numpy as np
 import pytest
 
 from tt_drake.diagrams.cli import main
@@ -94,3 +96,140 @@ def test_same_seed_replays_the_same_episodes(tmp_path):
         outs.append([{k: v for k, v in e.items() if k != "wall_time"}
                      for e in json.loads(path.read_text())["episodes"]])
     assert outs[0] == outs[1]
+
+
+def _subparsers():
+    import argparse
+
+    from tt_drake.diagrams.cli import build_parser
+
+    parser = build_parser()
+    (sub,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    return parser, sub.choices
+
+
+def test_option_names_are_the_registries_names():
+    from tt_drake.diagrams.cli import CONFIGURATION_NAMES, EXECUTOR_NAMES, PLAYER_NAMES
+    from tt_drake.diagrams.episodes import PLAYERS
+    from tt_drake.diagrams.parallel import EXECUTORS
+    from tt_drake.systems.hitting_configuration import SOURCES
+
+    assert PLAYER_NAMES == tuple(PLAYERS)
+    assert CONFIGURATION_NAMES == tuple(SOURCES)
+    assert EXECUTOR_NAMES == tuple(EXECUTORS)
+
+
+def test_every_help_lists_the_choices_and_the_defaults():
+    _, commands = _subparsers()
+    assert set(commands) >= {"serve", "bench", "collect", "train", "train-predictor",
+                             "eval-predictor", "reproduce", "models"}
+    for name, parser in commands.items():
+        text = " ".join(parser.format_help().split())
+        for action in parser._actions:
+            if action.dest == "help":
+                continue
+            if action.choices:
+                assert "{" + ",".join(action.choices) + "}" in text, (name, action.dest)
+            default = action.default
+            if default is not None and default is not False and default != "":
+                assert f"(default: {default})" in text, (name, action.dest)
+    serve = " ".join(commands["serve"].format_help().split())
+    assert "--player {idle,analytical,momp,crkr}" in serve
+    assert "(default: idle, which never swings)" in serve
+    assert "--distribution {default,real,fixed}" in serve
+
+
+def test_version_is_the_installed_distributions(capsys):
+    from importlib.metadata import version
+
+    with pytest.raises(SystemExit) as exit_:
+        main(["--version"])
+    assert exit_.value.code == 0
+    assert capsys.readouterr().out.strip() == f"tt-drake {version('tt-drake')}"
+
+
+def test_learned_players_default_to_the_shipped_artefacts(capsys):
+    from tt_drake.diagrams.cli import _scenario, build_parser
+    from tt_drake.models import shipped_artefact
+
+    parser = build_parser()
+    for player in ("momp", "crkr"):
+        scenario = _scenario(parser.parse_args(["serve", "--player", player]))
+        learned = scenario.learned
+        assert (learned.library, learned.crkr, learned.predictor) == tuple(
+            str(shipped_artefact(k)) for k in ("library", "crkr", "predictor"))
+        assert all(shipped_artefact(k).is_file() for k in ("library", "crkr", "predictor"))
+        assert f"the {player} player uses the shipped artefacts" in capsys.readouterr().err
+    # A file named on the command line: only that one, as before (no --predictor: physical).
+    learned = _scenario(parser.parse_args(["serve", "--player", "momp", "--library",
+                                           "mine.npz"])).learned
+    assert (learned.library, learned.crkr, learned.predictor) == ("mine.npz", "", "")
+    # Other players load no artefact.
+    learned = _scenario(parser.parse_args(["serve", "--player", "analytical"])).learned
+    assert (learned.library, learned.crkr, learned.predictor) == ("", "", "")
+    learned = _scenario(parser.parse_args(["bench", "--player", "crkr"])).learned
+    assert learned.crkr == str(shipped_artefact("crkr"))
+
+
+def _legend_covers(record: dict, legend: dict, where: str = "") -> None:
+    for key, value in record.items():
+        assert key in legend, f"{where}{key} has no entry in the fields legend"
+        entry = legend[key]
+        if isinstance(value, dict):
+            _legend_covers(value, entry, f"{where}{key}.")
+        elif "components" in entry and value is not None:
+            assert len(value) == len(entry["components"]) == len(entry["units"]), where + key
+
+
+def test_serve_json_has_provenance_the_full_scenario_and_a_fields_legend(tmp_path, capsys):
+    from tt_drake.diagrams.episodes import EpisodeResult, stroke_summary
+    from tt_drake.diagrams.scenario import load_scenario
+    from tt_drake.learned_player import MoMPStroke
+    from tt_drake.provenance import package_version
+    from tt_drake.referee_rules import Outcome
+
+    path = tmp_path / "idle.json"
+    assert main(["serve", "--serves", "1", "--seed", "3", "--quiet", "--json", str(path)]) == 0
+    out, err = capsys.readouterr()
+    assert "idle player, 1 default serves" in out
+    assert "no --player given, so this was the idle player" in err
+    assert "never swings" in err
+    data = json.loads(path.read_text())
+    assert data["tt_drake_version"] == package_version()
+    repo = Path(__file__).resolve().parents[2]
+    head = subprocess.run(["git", "-C", str(repo), "rev-parse", "HEAD"], capture_output=True,
+                          text=True).stdout.strip()
+    if (repo / ".git").exists() and head:
+        assert data["git_commit"] in (head, f"{head}-dirty")
+    else:  # a copy of the checkout without its repository
+        assert data["git_commit"] is None
+    scenario = load_scenario("default")
+    assert data["scenario"]["name"] == "default"
+    assert data["scenario"]["referee"]["target_y"] == scenario.referee.target_y
+    assert data["scenario"]["controller"]["kp"] == scenario.controller.kp
+    assert data["scenario"]["world"]["simulator"]["max_step_size"] == 0.002
+    legend = data["fields"]
+    _legend_covers(data["summary"], legend["summary"])
+    _legend_covers(data["episodes"][0], legend["episodes"])
+    assert legend["episodes"]["launch_state"]["units"][6:] == ["rad/s"] * 3
+    # A learned player's record (stroke) and a landing: every field named too.
+    stroke = stroke_summary(MoMPStroke(np.zeros(6), 0.5, np.zeros(7), np.zeros(7),
+                                       np.array([3, 4]), np.array([0.25, 0.75])))
+    record = EpisodeResult(1, [0.0] * 9, [0.0] * 7, 1.0, Outcome(
+        "returned", True, True, True, (), (0.1, 0.7), 0.1, 0.4, 0.9), 0.1, stroke=stroke,
+        arm={"joint_limit_excess": 0.0, "max_joint_speed": 1.0, "saturated_fraction": 0.0,
+             "saturated_samples_per_joint": [0] * 7}).as_dict()
+    _legend_covers(record, legend["episodes"])
+
+    # Given --player, no hint.
+    assert main(["serve", "--player", "idle", "--serves", "1", "--quiet"]) == 0
+    assert "no --player given" not in capsys.readouterr().err
+
+
+def test_reproduce_checks_its_input_files_before_the_first_stage(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("TT_DRAKE_SERVES", str(tmp_path / "nowhere" / "serves.json"))
+    out = tmp_path / "run"
+    assert main(["reproduce", "--quick", "--workers", "1", "--quiet", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "real serves file not found" in err[0]
+    assert not out.exists()  # no stage ran, no run folder was made

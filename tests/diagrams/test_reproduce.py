@@ -46,10 +46,16 @@ def test_a_folder_of_another_run_is_refused(tmp_path):
     assert (tmp_path / "b" / "notes.txt").read_text() == "mine"
 
 
-def test_cli_bad_executor_is_one_line(tmp_path, capsys):
-    assert main(["reproduce", "--out", str(tmp_path / "r"), "--executor", "spark"]) == 2
+def test_cli_bad_executor_exits_2_naming_it(tmp_path, capsys):
+    # argparse checks --executor's choices (listed by --help): it exits with status 2.
+    with pytest.raises(SystemExit) as exit_:
+        main(["reproduce", "--out", str(tmp_path / "r"), "--executor", "spark"])
+    assert exit_.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "unknown executor" in err[0]
+    assert "unknown executor 'spark'; choose one of local, ray" in err[-1]
+    assert not (tmp_path / "r").exists()
+    with pytest.raises(rp.ReproduceError, match="unknown executor"):
+        rp.reproduce(tmp_path / "r", executor="spark")
 
 
 def _library(path, n: int = 3) -> None:
@@ -101,7 +107,8 @@ def test_responsibility_learning_prunes_the_failing_primitives_and_resumes(tmp_p
     # Eq. 10's asymptote: a primitive is pruned iff its mean reward < 1 + zeta ln(thr) / kappa.
     assert whole["pruned"] == 2 and whole["primitives"] == 3
     assert 0.0 < whole["pruned_earlier_return"] < 0.25
-    library, _, _ = load_player_library(whole["library"])
+    assert whole["library"] == "responsibility/library_learned.npz"  # no machine path
+    library, _, _ = load_player_library(tmp_path / "whole" / whole["library"])
     assert library.n_primitives == 1 and library.stimuli[0, 1] == 1.0  # primitive 1 is kept
     curve = np.array(whole["curve"])
     assert curve[:, 0].tolist() == [20, 40, 60] and curve[-1, 1] > curve[0, 1]

@@ -73,7 +73,9 @@ def test_artefacts_for_another_scenario_or_damaged_are_refused(artefacts, tmp_pa
                  "--scenario", str(other), "--serves", "1", "--quiet"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "trained for scenario 'default', not 'other'" in err
-    assert main(["serve", "--player", "momp", "--serves", "1", "--quiet"]) == 2
+    # Naming one artefact means naming them: no shipped library is mixed in.
+    assert main(["serve", "--player", "momp", "--crkr", str(crkr), "--serves", "1",
+                 "--quiet"]) == 2
     assert "needs --library" in capsys.readouterr().err
     assert main(["train", "crkr", "--data", str(tmp_path), "--out", str(tmp_path / "c.npz")]) == 2
 

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import importlib
+from importlib import resources
 from pathlib import Path
 
-MODELS_DIR = Path(__file__).resolve().parents[2] / "models"
+# The tt_drake.models package: models/ in a checkout, tt_drake/models/ in an installed wheel.
+MODELS_DIR = Path(str(resources.files("tt_drake.models")))
 
 
 def generated_files() -> dict:

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -30,7 +31,8 @@ from tt_drake import wam_params as wp
 from tt_drake.constants import CONTACT, ContactSurface
 
 FILE_NAME = "wam7_racket.urdf"
-MODELS_DIR = Path(__file__).resolve().parents[2] / "models"
+# The tt_drake.models package: models/ in a checkout, tt_drake/models/ in an installed wheel.
+MODELS_DIR = Path(str(resources.files("tt_drake.models")))
 
 WHITE = (0.92, 0.92, 0.92, 1.0)
 GREY = (0.45, 0.45, 0.47, 1.0)
