@@ -126,6 +126,20 @@ def test_step_env_missed_ball_ends_with_the_referees_reward(stepped):
     assert steps < stepped.unwrapped._t_end * 100
 
 
+def test_scenario_options_name_a_file_or_pass_an_object():
+    from tt_drake.diagrams.gym_envs import make_scenario
+    from tt_drake.diagrams.scenario import scenario_path
+
+    by_name = make_scenario("default", distribution="fixed")
+    by_path = make_scenario(str(scenario_path("default")))
+    given = load_scenario()
+    given.referee.target_x = 0.3
+    by_object = make_scenario(given, distribution="real")
+    assert by_name.launcher.distribution == "fixed"
+    assert by_path.launcher.distribution == given.launcher.distribution == "default"
+    assert by_object.launcher.distribution == "real" and by_object.referee.target_x == 0.3
+
+
 def test_bad_options_fail_clearly():
     with pytest.raises(ScenarioError, match="distribution"):
         gymnasium.make("tt_drake/ReturnBall-v0", distribution="nope")
