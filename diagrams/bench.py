@@ -1,11 +1,13 @@
 """``tt-drake bench``: wall time per serve episode and real-time factor of the project's serve
 diagram, against diagrams measured in the same run.
 
-- The C++ reference has the same plant, contact model and integrator, and the arm under the same
+- The C++ reference has the same plant and contact model, and the arm under the same
   InverseDynamicsController, but follows a C++ ``TrajectorySource`` swing and has no Python
-  system (no aerodynamics, launcher or referee). It runs the same serves for the same simulated
-  durations (those the project's episodes ended at); the launcher's serve sampling is timed
-  separately.
+  system (no aerodynamics, launcher or referee). It is integrated at the fixed
+  :data:`REFERENCE_SIMULATOR` recipe (RK3, accuracy 1e-4, max step 2 ms) whatever the scenario's
+  simulator settings, so that the ratio to it shows progress across changes of the scenario. It
+  runs the same serves for the same simulated durations (those the project's episodes ended
+  at); the launcher's serve sampling is timed separately.
 - For a player other than idle: the idle diagram on the same serves (the arm holds still, so
   the ball flies past and the episode ends sooner), and the **replay**: the same serve diagram
   (world, aerodynamics, launcher, referee, controller, servo holds) with the player and its
@@ -13,11 +15,17 @@ diagram, against diagrams measured in the same run.
   player's episode gave the servo. It simulates the same physics, so replay / idle is what the
   returned ball costs the simulation itself (a longer episode, more contacts, a spinning ball)
   and project / replay is what the player's systems cost.
+- With ``workers`` > 1: the same serves in that many worker processes
+  (:func:`tt_drake.diagrams.parallel.run_episodes`): the start-up (building the workers'
+  diagrams), the steady wall time per serve, the speed-up over one process and the projected
+  wall time of 10,000 serves.
 """
 
+import copy
 import time
 
 import numpy as np
+from pydrake.systems.analysis import SimulatorConfig
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
@@ -26,6 +34,11 @@ from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import Scenario
 from tt_drake.serves import ServeSampler
 from tt_drake.systems.world import add_world, make_simulator, set_ball_state
+
+# The recipe the C++ reference diagram was defined with (DESIGN.md): kept fixed.
+REFERENCE_SIMULATOR = SimulatorConfig(integration_scheme="runge_kutta3", accuracy=1e-4,
+                                      max_step_size=2e-3, use_error_control=True)
+PROJECTED_SERVES = 10_000
 
 
 def _swing(duration: float) -> PiecewisePolynomial:
@@ -45,8 +58,10 @@ class ReferenceDiagram:
         from tt_drake.systems.wam import add_wam_controller
         from tt_drake.wam_params import AWAITING
 
+        world_config = copy.copy(scenario.world)
+        world_config.simulator = REFERENCE_SIMULATOR
         builder = DiagramBuilder()
-        self.world = add_world(builder, scenario.world)
+        self.world = add_world(builder, world_config)
         c = scenario.controller
         controller = add_wam_controller(builder, self.world.plant, self.world.robot, c.kp, c.ki,
                                         c.kd)
@@ -57,7 +72,7 @@ class ReferenceDiagram:
                                        TrajectorySource(traj.derivative(2)))
         builder.Connect(accel.get_output_port(), controller.get_input_port_desired_acceleration())
         self.diagram = builder.Build()
-        self.simulator = make_simulator(self.diagram, scenario.world)
+        self.simulator = make_simulator(self.diagram, world_config)
         self.context = self.simulator.get_mutable_context()
         plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
         self.world.plant.SetPositions(plant_context, self.world.robot, np.asarray(AWAITING))
@@ -71,7 +86,8 @@ class ReferenceDiagram:
         self.simulator.AdvanceTo(duration)
 
 
-def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str = "idle") -> dict:
+def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str = "idle",
+              workers: int = 1) -> dict:
     seeds = [episode_seed(seed, i) for i in range(serves)]
     sampler = ServeSampler(scenario.launcher.distribution, scenario.launcher.spin_max,
                            scenario.launcher.real_serves or None)
@@ -79,38 +95,50 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
     launch = [sampler.sample(s) for s in seeds]
     sampling = (time.perf_counter() - t0) / serves
 
-    project_wall, durations = _time_episodes(ServeDiagram(scenario, player), seeds)
+    project_wall, durations, project_cpu = _time_episodes(ServeDiagram(scenario, player), seeds)
     reference = ReferenceDiagram(scenario, max(durations))
     reference.run(launch[0].launch_state, durations[0])
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     for serve, duration in zip(launch, durations, strict=True):
         reference.run(serve.launch_state, duration)
     reference_wall = (time.perf_counter() - t0) / serves
+    reference_cpu = (time.process_time() - c0) / serves
     mean_duration = float(np.mean(durations))
     result = {
         "serves": serves, "player": player, "mean_episode_sim_time": mean_duration,
-        "project": {"wall_per_serve": project_wall,
+        "project": {"wall_per_serve": project_wall, "cpu_per_serve": project_cpu,
                     "real_time_factor": mean_duration / project_wall},
-        "reference": {"wall_per_serve": reference_wall,
+        "reference": {"wall_per_serve": reference_wall, "cpu_per_serve": reference_cpu,
                       "real_time_factor": mean_duration / reference_wall},
         "serve_sampling_per_serve": sampling,
         "ratio_project_to_reference": project_wall / reference_wall,
+        # The same ratio in this process's CPU time: steadier on a loaded machine.
+        "cpu_ratio_project_to_reference": project_cpu / reference_cpu,
+        "reference_simulator": {"integration_scheme": REFERENCE_SIMULATOR.integration_scheme,
+                                "accuracy": REFERENCE_SIMULATOR.accuracy,
+                                "max_step_size": REFERENCE_SIMULATOR.max_step_size},
+        "simulator": {"integration_scheme": scenario.world.simulator.integration_scheme,
+                      "accuracy": scenario.world.simulator.accuracy,
+                      "max_step_size": scenario.world.simulator.max_step_size},
     }
     if player != "idle":
         # The same serves at the idle diagram. A returned ball flies on to the far court, so per
         # serve the player's episodes also simulate longer.
-        idle_wall, idle_durations = _time_episodes(ServeDiagram(scenario, "idle"), seeds)
+        idle_wall, idle_durations, _ = _time_episodes(ServeDiagram(scenario, "idle"), seeds)
         idle_sim = float(np.mean(idle_durations))
         result["idle"] = {"wall_per_serve": idle_wall, "mean_episode_sim_time": idle_sim,
                           "real_time_factor": idle_sim / idle_wall}
         result["ratio_to_idle_per_serve"] = project_wall / idle_wall
         result["ratio_to_idle_per_simulated_second"] = (
             (project_wall / mean_duration) / (idle_wall / idle_sim))
-        replay_wall, replay_durations = _time_replay(scenario, player, seeds)
-        result["replay"] = {"wall_per_serve": replay_wall,
+        replay_wall, replay_durations, replay_cpu = _time_replay(scenario, player, seeds)
+        result["replay"] = {"wall_per_serve": replay_wall, "cpu_per_serve": replay_cpu,
                             "mean_episode_sim_time": float(np.mean(replay_durations))}
         result["ratio_to_replay_per_serve"] = project_wall / replay_wall
+        result["cpu_ratio_to_replay_per_serve"] = project_cpu / replay_cpu
         result["replay_to_idle_per_serve"] = replay_wall / idle_wall
+    if workers > 1:
+        result["parallel"] = _time_parallel(scenario, player, seeds, workers, project_wall)
     try:
         from tt_drake.benchmarks import bench_momp_planning
     except ImportError:
@@ -135,9 +163,11 @@ def _replay_player(builder: DiagramBuilder, world, controller, scenario: Scenari
     return []
 
 
-def _time_replay(scenario: Scenario, player: str, seeds: list[int]) -> tuple[float, list[float]]:
+def _time_replay(scenario: Scenario, player: str, seeds: list[int]
+                 ) -> tuple[float, list[float], float]:
     """Record the set-points of ``player``'s episodes (untimed), then time the replay diagram on
-    the same serves: wall time per episode (after a warm-up) and the episodes' durations."""
+    the same serves: wall time per episode (after a warm-up), the episodes' durations and the CPU
+    time per episode."""
     recorder = ServeDiagram(scenario, player, log_setpoints=True)
     trajectories = []
     for s in seeds:
@@ -148,21 +178,49 @@ def _time_replay(scenario: Scenario, player: str, seeds: list[int]) -> tuple[flo
     source = replay.diagram.GetSubsystemByName("setpoint_replay")
     source.UpdateTrajectory(trajectories[0])
     replay.run(seeds[0])  # warm-up
-    wall, durations = 0.0, []
+    wall, cpu, durations = 0.0, 0.0, []
     for s, trajectory in zip(seeds, trajectories, strict=True):
         source.UpdateTrajectory(trajectory)
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         durations.append(replay.run(s).duration)
         wall += time.perf_counter() - t0
-    return wall / len(seeds), durations
+        cpu += time.process_time() - c0
+    return wall / len(seeds), durations, cpu / len(seeds)
 
 
-def _time_episodes(diagram: ServeDiagram, seeds: list[int]) -> tuple[float, list[float]]:
-    """Wall time per episode over ``seeds`` (after one warm-up episode) and their durations."""
-    diagram.run(seeds[0])  # warm caches (first Python calls, scalar conversions)
+def _time_parallel(scenario: Scenario, player: str, seeds: list[int], workers: int,
+                   serial_wall: float) -> dict:
+    """The serves of ``seeds`` on ``workers`` processes as ``tt-drake serve --workers`` runs them
+    (a learned player's artefacts loaded once, before the workers fork). ``start_up``: until the
+    first result (the workers build their diagrams); ``wall_per_serve``: the steady rate after
+    it; the projection adds the two for :data:`PROJECTED_SERVES` serves."""
+    from tt_drake.diagrams.episodes import LEARNED_PLAYERS, load_learned_player
+    from tt_drake.diagrams.parallel import run_episodes
+
+    if player in LEARNED_PLAYERS:
+        load_learned_player(scenario, primitives=player == "momp", keep=True)
     t0 = time.perf_counter()
+    first = None
+    for _ in run_episodes(scenario, player, seeds, workers):
+        first = time.perf_counter() if first is None else first
+    end = time.perf_counter()
+    start_up = first - t0
+    per_serve = (end - first) / max(1, len(seeds) - 1)
+    return {"workers": workers, "serves": len(seeds), "total_wall": end - t0,
+            "start_up": start_up, "wall_per_serve": per_serve,
+            "speedup": serial_wall / per_serve,
+            "projected_wall_10000": start_up + PROJECTED_SERVES * per_serve}
+
+
+def _time_episodes(diagram: ServeDiagram, seeds: list[int]
+                   ) -> tuple[float, list[float], float]:
+    """Wall time per episode over ``seeds`` (after one warm-up episode), their durations and the
+    CPU time per episode."""
+    diagram.run(seeds[0])  # warm caches (first Python calls, scalar conversions)
+    t0, c0 = time.perf_counter(), time.process_time()
     durations = [diagram.run(s).duration for s in seeds]
-    return (time.perf_counter() - t0) / len(seeds), durations
+    n = len(seeds)
+    return (time.perf_counter() - t0) / n, durations, (time.process_time() - c0) / n
 
 
 def format_bench(r: dict) -> str:
@@ -170,10 +228,15 @@ def format_bench(r: dict) -> str:
         f"serve episodes: {r['serves']} ({r['player']} player), mean simulated time "
         f"{r['mean_episode_sim_time']:.2f} s",
         f"  project diagram    {1e3 * r['project']['wall_per_serve']:8.1f} ms/serve   "
-        f"{r['project']['real_time_factor']:5.1f}x real time",
+        f"{r['project']['real_time_factor']:5.1f}x real time   "
+        f"{1e3 * r['project']['cpu_per_serve']:8.1f} CPU ms/serve",
         f"  C++ reference      {1e3 * r['reference']['wall_per_serve']:8.1f} ms/serve   "
-        f"{r['reference']['real_time_factor']:5.1f}x real time",
-        f"  ratio project/reference: {r['ratio_project_to_reference']:.2f}",
+        f"{r['reference']['real_time_factor']:5.1f}x real time   "
+        f"{1e3 * r['reference']['cpu_per_serve']:8.1f} CPU ms/serve",
+        f"  ratio project/reference: {r['ratio_project_to_reference']:.2f} (reference at "
+        f"accuracy {r['reference_simulator']['accuracy']:g}, project at "
+        f"{r['simulator']['accuracy']:g}); in CPU time "
+        f"{r['cpu_ratio_project_to_reference']:.2f}",
         f"  serve sampling (included in project): "
         f"{1e3 * r['serve_sampling_per_serve']:.1f} ms/serve",
     ]
@@ -188,8 +251,15 @@ def format_bench(r: dict) -> str:
                      f"(the same physics, no player systems; mean simulated "
                      f"{r['replay']['mean_episode_sim_time']:.2f} s)")
         lines.append(f"  ratio {r['player']}/replay: {r['ratio_to_replay_per_serve']:.2f} per "
-                     f"serve (the player's systems); replay/idle: "
+                     f"serve, {r['cpu_ratio_to_replay_per_serve']:.2f} in CPU time (the "
+                     f"player's systems); replay/idle: "
                      f"{r['replay_to_idle_per_serve']:.2f} (the returned ball's physics)")
+    if "parallel" in r:
+        p = r["parallel"]
+        lines.append(f"  {p['workers']} workers: {1e3 * p['wall_per_serve']:.1f} ms/serve steady "
+                     f"({p['speedup']:.2f}x one process) over {p['serves']} serves, start-up "
+                     f"{p['start_up']:.1f} s; projected {PROJECTED_SERVES:,} serves: "
+                     f"{p['projected_wall_10000'] / 60:.1f} min")
     if "momp_planning" in r:
         lines.append(f"  MoMP planning: {r['momp_planning']}")
     return "\n".join(lines)

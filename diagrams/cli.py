@@ -142,6 +142,9 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--seed", type=int, default=0, help="base seed of the run")
     _add_player_option(bench, "idle")
     bench.add_argument("--json", default=None, help="write the measurements as JSON")
+    bench.add_argument("--workers", type=_positive_int, default=1,
+                       help="also time the serves on this many worker processes and project "
+                            "10,000 serves (default 1: not)")
     _add_scenario_options(bench)
     _add_learned_options(bench)
 
@@ -234,7 +237,8 @@ def _check_learned(player: str, scenario) -> None:
     from tt_drake.diagrams.episodes import LEARNED_PLAYERS, load_learned_player
 
     if player in LEARNED_PLAYERS:
-        load_learned_player(scenario, primitives=player == "momp")
+        # Kept: the diagram built next takes these instead of loading them again.
+        load_learned_player(scenario, primitives=player == "momp", keep=True)
 
 
 def _serve(args) -> None:
@@ -268,7 +272,7 @@ def _bench(args) -> None:
     _check_learned(args.player, scenario)
     if args.json:
         check_writable(args.json)
-    result = run_bench(scenario, args.serves, args.seed, args.player)
+    result = run_bench(scenario, args.serves, args.seed, args.player, args.workers)
     print(format_bench(result))
     if args.json:
         write_json_atomic(args.json, {**run_provenance(), "scenario": scenario_dict(scenario),

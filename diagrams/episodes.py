@@ -83,10 +83,30 @@ def _analytical_player(builder: DiagramBuilder, world: World, controller,
     return [camera]
 
 
-def load_learned_player(scenario: Scenario, primitives: bool = True) -> dict:
+# Artefacts loaded with ``keep`` (the CLI's check), by their files: the next load of the same files
+# takes them instead of loading (and refitting CrKR) again; forked workers inherit them.
+_CHECKED: dict = {}
+
+
+def _artefact_key(scenario: Scenario, primitives: bool) -> tuple:
+    import os
+
+    cfg = scenario.learned
+    files = []
+    for path in (cfg.library if primitives else "", cfg.crkr, cfg.predictor):
+        try:
+            st = os.stat(path) if path else None
+        except OSError:
+            st = None
+        files.append((path, None if st is None else (st.st_mtime_ns, st.st_size)))
+    return (scenario.name, primitives, cfg.configuration, *files)
+
+
+def load_learned_player(scenario: Scenario, primitives: bool = True, keep: bool = False) -> dict:
     """Load and check the learned player's artefacts named in ``scenario.learned`` (the
     primitive library only with ``primitives``); raise PlayerError with one line naming the
-    problem (missing, corrupt, another scenario)."""
+    problem (missing, corrupt, another scenario). With ``keep`` the artefacts are also kept for
+    the next load of the same unchanged files, which takes them (one diagram owns them)."""
     from tt_drake.constants import PLANES
     from tt_drake.hitting_point import HittingPointGPR, PredictorFileError
     from tt_drake.learned_player import (
@@ -105,6 +125,9 @@ def load_learned_player(scenario: Scenario, primitives: bool = True) -> dict:
     if cfg.configuration == "crkr" and not cfg.crkr:
         raise PlayerError("the learned player with --configuration crkr needs --crkr FILE (from "
                           "tt-drake train crkr)")
+    key = _artefact_key(scenario, primitives)
+    if key in _CHECKED:
+        return _CHECKED[key] if keep else _CHECKED.pop(key)
     out = {}
     try:
         if primitives:
@@ -115,6 +138,8 @@ def load_learned_player(scenario: Scenario, primitives: bool = True) -> dict:
         out["gpr"] = HittingPointGPR.load(cfg.predictor) if cfg.predictor else None
     except (LearnedArtefactError, PredictorFileError) as err:
         raise PlayerError(str(err)) from None
+    if keep:
+        _CHECKED[key] = out
     return out
 
 
@@ -254,7 +279,9 @@ class ServeDiagram:
         add_aerodynamics(builder, world, scenario.aerodynamics)
         self.referee = builder.AddNamedSystem("referee", self._make_referee())
         builder.Connect(plant.get_state_output_port(world.ball), self.referee.get_input_port(0))
-        builder.Connect(plant.get_body_poses_output_port(), self.referee.get_input_port(1))
+        if world.robot is not None:
+            builder.Connect(plant.get_state_output_port(world.robot),
+                            self.referee.GetInputPort("robot_state"))
         builder.Connect(plant.get_contact_results_output_port(), self.referee.get_input_port(2))
         self.controller = None
         self.seeded = [self.launcher]
@@ -330,15 +357,15 @@ class ServeDiagram:
         world, plant = self.world, self.world.plant
         kwargs = {}
         if world.robot is not None:
+            from tt_drake.systems.referee import RacketCentre
             from tt_drake.systems.wam import RACKET_CENTER_FRAME
 
             frame = plant.GetFrameByName(RACKET_CENTER_FRAME, world.robot)
-            offset = frame.GetFixedPoseInBodyFrame().translation()
             robot_bodies = [plant.get_body(i).index() for i in plant.GetBodyIndices(world.robot)]
             inspector = world.scene_graph.model_inspector()
             table_ids = [g for g in plant.GetCollisionGeometriesForBody(plant.world_body())
                          if inspector.GetName(g).endswith("table_top")]
-            kwargs = dict(racket_body_index=frame.body().index(), racket_offset=offset,
+            kwargs = dict(racket_centre=RacketCentre(plant, world.robot, frame),
                           robot_body_indices=robot_bodies, table_geometry_ids=table_ids)
         return Referee(self.scenario.referee, self.scenario.referee_rate,
                        stop_when_decided=self.end_when_decided, **kwargs)

@@ -4,6 +4,10 @@ Diagrams and contexts are not picklable (facts.md section 4), so every worker bu
 :class:`ServeDiagram` in its initializer (fork start method: the parent's imports are shared) and
 receives only episode seeds; results come back in submission order. With one worker everything
 runs in this process.
+
+Each worker process runs its BLAS with one thread (:func:`one_blas_thread`): a worker is one core's
+worth of work, and BLAS threads of several workers oversubscribe the cores (a CrKR Cholesky took
+3.6 s instead of 0.14 s under load; docs/performance.md).
 """
 
 import multiprocessing
@@ -24,7 +28,24 @@ def default_workers() -> int:
     return max(1, len(os.sched_getaffinity(0)))
 
 
+BLAS_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
+                         "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS", "NUMEXPR_NUM_THREADS")
+
+
+def one_blas_thread() -> None:
+    """Limit this process's BLAS/OpenMP thread pools to one thread: those already loaded (through
+    threadpoolctl, a scikit-learn dependency) and, through the environment, any loaded later."""
+    for name in BLAS_THREAD_VARIABLES:
+        os.environ[name] = "1"
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # pragma: no cover - scikit-learn depends on it
+        return
+    threadpool_limits(limits=1)
+
+
 def _init(scenario: Scenario, player: str, make_diagram) -> None:
+    one_blas_thread()
     _WORKER["diagram"] = make_diagram(scenario, player)
 
 

@@ -18,7 +18,7 @@ from collections.abc import Callable, Iterator
 from pydrake.common.yaml import yaml_load_typed
 
 from tt_drake.diagrams.episodes import EpisodeResult
-from tt_drake.diagrams.parallel import ExecutorError
+from tt_drake.diagrams.parallel import ExecutorError, one_blas_thread
 from tt_drake.diagrams.scenario import Scenario, dump_scenario
 
 IN_FLIGHT = 2  # episodes queued per actor
@@ -37,6 +37,7 @@ class _Worker:
 
     def __init__(self, scenario_yaml: str, player: str, make_diagram: Callable):
         self.error = None
+        one_blas_thread()  # one CPU per actor
         try:
             scenario = yaml_load_typed(schema=Scenario, data=scenario_yaml, defaults=Scenario())
             self.diagram = make_diagram(scenario, player)

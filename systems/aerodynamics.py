@@ -5,15 +5,20 @@
 Input ``ball_state``: the plant's state output for the ball's model instance,
 (quaternion wxyz, p, omega, v), 13 floats. Output ``generalized_force``: the plant's full
 generalized-force vector with the force in the ball's translational entries (a free body's
-generalized force is the world-frame torque and force at its origin). The output is evaluated at
-every integrator stage, so it uses plain-float arithmetic and allocates nothing (DESIGN.md).
+generalized force is the world-frame torque and force at its origin).
+
+The output is evaluated at every integrator stage, so the law is a C++ ``SymbolicVectorSystem``
+(no Python call per stage; docs/performance.md), wrapped in a small diagram that names its
+ports.
 """
 
 
-import math
 from dataclasses import dataclass
 
-from pydrake.systems.framework import BasicVector, LeafSystem
+import numpy as np
+from pydrake.symbolic import Expression, Variable, sqrt
+from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.primitives import SymbolicVectorSystem
 
 from tt_drake.constants import BALL
 
@@ -25,42 +30,56 @@ class AerodynamicsConfig:
     enabled: bool = True
 
 
-class Aerodynamics(LeafSystem):
-    def __init__(self, num_velocities: int, ball_velocity_start: int,
-                 config: AerodynamicsConfig | None = None, mass: float = BALL.mass):
-        super().__init__()
-        self.config = config or AerodynamicsConfig()
-        self._mk = mass * self.config.drag_k
-        self._mc = mass * self.config.magnus_cl
-        self._f0 = ball_velocity_start + 3  # force entries follow the torque entries
-        self._enabled = self.config.enabled
-        self._ball_state = self.DeclareVectorInputPort("ball_state", 13)
-        self.DeclareVectorOutputPort("generalized_force", BasicVector(num_velocities),
-                                     self._calc_force)
+def aerodynamic_force_expressions(state: np.ndarray, num_velocities: int, force_start: int,
+                                  config: AerodynamicsConfig, mass: float) -> np.ndarray:
+    """The generalized force (``num_velocities`` expressions) of the ball state ``state`` (13
+    variables): m (-k |v| v + C_L omega x v) at ``force_start``, zero elsewhere."""
+    out = np.array([Expression(0.0)] * num_velocities, dtype=object)
+    if not config.enabled:
+        return out
+    w, v = state[7:10], state[10:13]
+    mk = mass * config.drag_k
+    mc = mass * config.magnus_cl
+    speed = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    magnus = (w[1] * v[2] - w[2] * v[1], w[2] * v[0] - w[0] * v[2], w[0] * v[1] - w[1] * v[0])
+    for i in range(3):
+        out[force_start + i] = -mk * speed * v[i] + mc * magnus[i]
+    return out
 
-    def _calc_force(self, context, output):
-        out = output.get_mutable_value()
-        out[:] = 0.0  # a fresh BasicVector holds NaN
-        if not self._enabled:
-            return
-        s = self._ball_state.Eval(context)
-        wx, wy, wz, vx, vy, vz = float(s[7]), float(s[8]), float(s[9]), float(s[10]), \
-            float(s[11]), float(s[12])
-        kd = self._mk * math.sqrt(vx * vx + vy * vy + vz * vz)
-        c = self._mc
-        i = self._f0
-        out[i] = -kd * vx + c * (wy * vz - wz * vy)
-        out[i + 1] = -kd * vy + c * (wz * vx - wx * vz)
-        out[i + 2] = -kd * vz + c * (wx * vy - wy * vx)
+
+def make_aerodynamics(num_velocities: int, ball_velocity_start: int,
+                      config: AerodynamicsConfig | None = None,
+                      mass: float = BALL.mass) -> Diagram:
+    """The aerodynamics system: input ``ball_state`` (13), output ``generalized_force``
+    (``num_velocities``); ``ball_velocity_start``: the ball's first entry in the plant's v."""
+    config = config or AerodynamicsConfig()
+    state = np.array([Variable(f"x{i}") for i in range(13)])
+    # Drake (1.51) computes every subsystem's time derivatives, and a SymbolicVectorSystem
+    # without state fails there: it gets one constant continuous state (derivative zero, so it
+    # adds nothing to the integrator's error estimate).
+    constant = Variable("unused")
+    # The force entries follow the ball's three torque entries.
+    law = SymbolicVectorSystem(state=[constant], dynamics=[Expression(0.0)], input=state,
+                               output=aerodynamic_force_expressions(
+                                   state, num_velocities, ball_velocity_start + 3, config, mass))
+    builder = DiagramBuilder()
+    law = builder.AddNamedSystem("drag_and_magnus", law)
+    builder.ExportInput(law.get_input_port(), "ball_state")
+    builder.ExportOutput(law.get_output_port(), "generalized_force")
+    diagram = builder.Build()
+    diagram.set_name("aerodynamics")
+    return diagram
 
 
 def add_aerodynamics(builder, world, config: AerodynamicsConfig | None = None,
-                     name: str = "aerodynamics") -> Aerodynamics:
-    """Add :class:`Aerodynamics` for ``world``'s ball and wire it: ball state in, the plant's
-    applied generalized force out."""
+                     name: str = "aerodynamics") -> Diagram:
+    """Add the aerodynamics for ``world``'s ball and wire it: ball state in, the plant's applied
+    generalized force out."""
     plant = world.plant
-    aero = builder.AddNamedSystem(name, Aerodynamics(
-        plant.num_velocities(), world.ball_body.floating_velocities_start_in_v(), config))
+    aero = make_aerodynamics(plant.num_velocities(),
+                             world.ball_body.floating_velocities_start_in_v(), config)
+    aero.set_name(name)
+    builder.AddSystem(aero)
     builder.Connect(plant.get_state_output_port(world.ball), aero.get_input_port(0))
     builder.Connect(aero.get_output_port(0), plant.get_applied_generalized_force_input_port())
     return aero

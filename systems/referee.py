@@ -3,7 +3,10 @@ episode with :mod:`tt_drake.referee_rules`.
 
 Inputs:
 - ``ball_state``: the plant's state output for the ball (quaternion, p, omega, v; 13 floats);
-- ``body_poses``: the plant's body poses, to find the racket centre (optional);
+- ``robot_state``: the plant's state output for the robot (optional): the racket centre is
+  computed from its joint positions by ``racket_centre`` (:class:`RacketCentre`), and only for the
+  samples that the contact detector needs it for (a velocity jump away from the table, the net and
+  the floor), not at every sample (docs/performance.md);
 - ``contact_results``: the plant's contact results, to see robot-table contact (optional).
 
 A periodic unrestricted update at ``rate`` Hz (default 250 Hz) samples them; its abstract state
@@ -21,8 +24,9 @@ of a returned ball's episode.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from pydrake.common.value import AbstractValue
-from pydrake.math import RigidTransform
 from pydrake.multibody.plant import ContactResults
 from pydrake.systems.framework import EventStatus, LeafSystem
 
@@ -48,22 +52,65 @@ class _RefereeState(Immutable):
         self.sample, self.events, self.touched = sample, events, touched
 
 
+class RacketCentre:
+    """The racket centre (world frame) from the arm's joint positions: forward kinematics of the
+    racket-centre frame on a private context of ``plant``."""
+
+    def __init__(self, plant, robot, frame):
+        self._plant, self._robot, self._frame = plant, robot, frame
+        self._context = plant.CreateDefaultContext()
+        self.num_positions = plant.num_positions(robot)
+        self.state_size = self.num_positions + plant.num_velocities(robot)
+
+    def __call__(self, q) -> tuple[float, float, float]:
+        self._plant.SetPositions(self._context, self._robot, q)
+        p = self._frame.CalcPoseInWorld(self._context).translation()
+        return float(p[0]), float(p[1]), float(p[2])
+
+
+class _RacketAt:
+    """The racket centre at one sample, computed on first use from the joint positions stored
+    with the sample (a 3-sequence for :class:`ContactDetector`). Never changed once computed."""
+
+    __slots__ = ("_q", "_centre", "_point")
+
+    def __init__(self, q: tuple, centre: Callable):
+        self._q, self._centre, self._point = q, centre, None
+
+    def _get(self) -> tuple:
+        if self._point is None:
+            self._point = self._centre(self._q)
+        return self._point
+
+    def __len__(self) -> int:
+        return 3
+
+    def __getitem__(self, i):
+        return self._get()[i]
+
+    def __iter__(self):
+        return iter(self._get())
+
+    def __deepcopy__(self, memo):
+        return self
+
+
 class Referee(LeafSystem):
     def __init__(self, config: RefereeConfig | None = None, rate: float = 250.0,
-                 racket_body_index=None, racket_offset=(0.0, 0.0, 0.0),
+                 racket_centre: RacketCentre | None = None,
                  robot_body_indices=(), table_geometry_ids=(), stop_below: float = 0.1,
                  stop_when_decided: bool = False):
         super().__init__()
         self.config = config or RefereeConfig()
         self.detector = ContactDetector(self.config)
-        self._racket_body = racket_body_index
-        self._racket_offset = list(racket_offset)
+        self._racket_centre = racket_centre
         self._robot_bodies = set(robot_body_indices)
         self._table_geometries = set(table_geometry_ids)
         self._stop_below = stop_below
         self._stop_when_decided = stop_when_decided
         self.DeclareVectorInputPort("ball_state", 13)
-        self.DeclareAbstractInputPort("body_poses", AbstractValue.Make([RigidTransform()]))
+        self.DeclareVectorInputPort("robot_state",
+                                    14 if racket_centre is None else racket_centre.state_size)
         self.DeclareAbstractInputPort("contact_results", AbstractValue.Make(ContactResults()))
         self._state_index = self.DeclareAbstractState(AbstractValue.Make(_RefereeState()))
         self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, self._update)
@@ -74,10 +121,10 @@ class Referee(LeafSystem):
             self._calc_outcome)
 
     def _racket_center(self, context):
-        if self._racket_body is None or not self.get_input_port(1).HasValue(context):
+        if self._racket_centre is None or not self.get_input_port(1).HasValue(context):
             return None
-        pose = self.get_input_port(1).Eval(context)[int(self._racket_body)]
-        return pose.multiply(self._racket_offset)
+        x = self.get_input_port(1).Eval(context)
+        return _RacketAt(tuple(x[:self._racket_centre.num_positions]), self._racket_centre)
 
     def _robot_touches_table(self, context) -> bool:
         if not self._table_geometries or not self.get_input_port(2).HasValue(context):
@@ -95,8 +142,8 @@ class Referee(LeafSystem):
     def _update(self, context, state):
         old = context.get_abstract_state(self._state_index).get_value()
         s = self.get_input_port(0).Eval(context)
-        cur = ContactDetector.sample(context.get_time(), s[4:7], s[10:13], s[7:10],
-                                     self._racket_center(context))
+        cur = (*ContactDetector.sample(context.get_time(), s[4:7], s[10:13], s[7:10])[:4],
+               self._racket_center(context))
         events = old.events
         decided = False
         if old.sample is not None:

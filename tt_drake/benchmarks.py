@@ -16,7 +16,7 @@ import numpy as np
 from tt_drake.dmp import HittingDMP
 from tt_drake.momp import MotorPrimitiveLibrary
 
-__all__ = ["synthetic_library", "bench_momp_planning"]
+__all__ = ["synthetic_library", "bench_momp_planning", "compare_serve_records"]
 
 
 def synthetic_library(
@@ -110,3 +110,39 @@ def bench_momp_planning(
         "min_ms": float(warm.min()),
         "mean_kept_primitives": float(np.mean(kept)),
     }
+
+
+# Fields of a serve record (``tt-drake serve --json``) that must match exactly for two runs to
+# have the same per-serve outcome; the landing point is compared within a tolerance.
+OUTCOME_FIELDS = ("outcome", "hit", "returned", "on_target", "faults")
+
+
+def compare_serve_records(a: dict, b: dict, landing_tol: float = 1e-3) -> dict[str, Any]:
+    """Compare two ``tt-drake serve --json`` outputs serve by serve.
+
+    Both must hold the same serves (the same seeds in the same order). A serve *differs* when any
+    of :data:`OUTCOME_FIELDS` differ, when one has a landing point and the other not, or when
+    the landing points are more than ``landing_tol`` metres apart. Returns the number of serves,
+    the indices of those that differ (with the two records' outcome and landing), the largest
+    landing shift (m) over serves that land in both, and ``same`` (no serve differs).
+    """
+    ea, eb = a["episodes"], b["episodes"]
+    if [e["seed"] for e in ea] != [e["seed"] for e in eb]:
+        raise ValueError("the two runs do not hold the same serves (seeds differ)")
+    differ = []
+    shift = 0.0
+    for i, (x, y) in enumerate(zip(ea, eb, strict=True)):
+        bad = [f for f in OUTCOME_FIELDS if x.get(f) != y.get(f)]
+        la, lb = x.get("landing"), y.get("landing")
+        if (la is None) != (lb is None):
+            bad.append("landing")
+        elif la is not None:
+            d = float(np.linalg.norm(np.subtract(la, lb)))
+            shift = max(shift, d)
+            if d > landing_tol:
+                bad.append("landing")
+        if bad:
+            differ.append({"index": i, "seed": x["seed"], "fields": bad,
+                           "a": [x.get("outcome"), la], "b": [y.get("outcome"), lb]})
+    return {"serves": len(ea), "differ": differ, "max_landing_shift": shift,
+            "same": not differ}

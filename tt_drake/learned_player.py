@@ -49,6 +49,7 @@ from tt_drake.stages import (
     Quintic,
     StagePlan,
     StageTimes,
+    continue_past_end,
     follow_through_time,
     quintic_coefficients,
 )
@@ -112,6 +113,25 @@ class SampledSegment:
             q = q + v * extra
             a = np.zeros_like(a)
         return q, v, a
+
+    def evaluate_many(self, times) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`evaluate` at every time of ``times`` (K,) at once: (q, q_dot, q_ddot), each
+        (K, D)."""
+        t = np.asarray(times, dtype=float)
+        s = np.clip(t - self.t0, 0.0, self.duration)
+        k = np.minimum((s / self.dt).astype(int), self._n - 1)
+        u = s - k * self.dt
+        one, zero = np.ones_like(u), np.zeros_like(u)
+        u2 = u * u
+        u3 = u2 * u
+        u4 = u3 * u
+        powers = np.stack([np.stack(row, axis=-1) for row in (
+            (one, zero, zero), (u, one, zero), (u2, 2.0 * u, 2.0 * one),
+            (u3, 3.0 * u2, 6.0 * u), (u4, 4.0 * u3, 12.0 * u2),
+            (u4 * u, 5.0 * u4, 20.0 * u3))], axis=1)  # (K, 6, 3)
+        r = self.coeffs[k] @ powers  # (K, D, 3)
+        q, v, a = r[:, :, 0], r[:, :, 1], r[:, :, 2]
+        return continue_past_end((t - self.t_end)[:, None], q, v, a)
 
     def knots(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(q, q_dot, q_ddot) at the samples (interval starts), shape (K, D) each."""

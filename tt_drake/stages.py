@@ -84,6 +84,37 @@ class Quintic:
         q, v, a = zip(*(self.evaluate(t) for t in times), strict=True)
         return times, np.array(q), np.array(v), np.array(a)
 
+    def evaluate_many(self, times) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`evaluate` at every time of ``times`` (K,) at once: (q, q_dot, q_ddot), each
+        (K, n_dof), with the same operations (hence the same values) as K calls."""
+        t = np.asarray(times, dtype=float)[:, None]
+        s = np.clip(t - self.t0, 0.0, self.duration)
+        c = self.coeffs
+        q = ((((c[:, 5] * s + c[:, 4]) * s + c[:, 3]) * s + c[:, 2]) * s + c[:, 1]) * s + c[:, 0]
+        v = (((5 * c[:, 5] * s + 4 * c[:, 4]) * s + 3 * c[:, 3]) * s + 2 * c[:, 2]) * s + c[:, 1]
+        a = ((20 * c[:, 5] * s + 12 * c[:, 4]) * s + 6 * c[:, 3]) * s + 2 * c[:, 2]
+        return continue_past_end(t - self.t_end, q, v, a)
+
+
+def continue_past_end(extra: np.ndarray, q, v, a):
+    """Rows with ``extra`` > 0 (after the segment's end): position continued with the end
+    velocity, zero acceleration (as ``evaluate``)."""
+    past = extra[:, 0] > 0.0
+    if np.any(past):
+        q, a = q.copy(), a.copy()
+        q[past] = q[past] + v[past] * extra[past]
+        a[past] = 0.0
+    return q, v, a
+
+
+def evaluate_segment_many(segment, times) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``segment.evaluate`` at every time of ``times``: vectorised when the segment has
+    ``evaluate_many``, else one call per time."""
+    if hasattr(segment, "evaluate_many"):
+        return segment.evaluate_many(times)
+    q, v, a = zip(*(segment.evaluate(t) for t in times), strict=True)
+    return np.array(q), np.array(v), np.array(a)
+
 
 @dataclass
 class StagePlan:
@@ -228,12 +259,19 @@ def plan_extremes(plan: StagePlan, rate: float = 500.0) -> dict:
 def within_effort(plan: StagePlan, torques, budget, now: float = -np.inf,
                   rate: float = 50.0) -> bool:
     """Inverse dynamics ``torques(q, q_dot, q_ddot)`` along ``plan`` from ``now`` on, sampled at
-    ``rate`` Hz, within ``budget`` (per joint) everywhere: the controller can then follow it."""
+    ``rate`` Hz, within ``budget`` (per joint) everywhere: the controller can then follow it.
+
+    Each segment's samples are evaluated at once (:func:`evaluate_segment_many`); the inverse
+    dynamics stays one call per sample and the check stops at the first sample over budget."""
     budget = np.asarray(budget, dtype=float)
     for _, seg in plan.segments:
         if seg.t_end <= now:
             continue
-        for t in np.arange(max(seg.t0, now), seg.t_end + 1e-9, 1.0 / rate):
-            if np.any(np.abs(torques(*seg.evaluate(t))) > budget):
+        times = np.arange(max(seg.t0, now), seg.t_end + 1e-9, 1.0 / rate)
+        if times.size == 0:
+            continue
+        q, v, a = evaluate_segment_many(seg, times)
+        for i in range(times.size):
+            if np.any(np.abs(torques(q[i], v[i], a[i])) > budget):
                 return False
     return True

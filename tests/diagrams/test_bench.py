@@ -32,3 +32,25 @@ def test_replayed_setpoints_return_the_ball_to_the_same_spot():
                                                          rel=1e-4)
     # The holds start at the player's first set-point: no start-up torque spike.
     assert original.arm["saturated_fraction"] == 0.0
+
+
+def test_reference_diagram_keeps_the_recipe_whatever_the_scenario():
+    from tt_drake.diagrams.bench import ReferenceDiagram
+
+    scenario = load_scenario()
+    scenario.world.simulator.accuracy = 1e-3
+    reference = ReferenceDiagram(scenario, 1.0)
+    assert reference.simulator.get_integrator().get_target_accuracy() == 1e-4
+    assert scenario.world.simulator.accuracy == 1e-3  # the scenario itself is left alone
+
+
+def test_parallel_timing_runs_every_serve_and_projects_from_the_steady_rate():
+    from tt_drake.diagrams.bench import PROJECTED_SERVES, _time_parallel
+
+    seeds = [episode_seed(2, i) for i in range(4)]
+    p = _time_parallel(load_scenario(), "idle", seeds, 2, serial_wall=1.0)
+    assert p["serves"] == 4 and p["workers"] == 2
+    assert 0 < p["start_up"] < p["total_wall"]
+    assert p["projected_wall_10000"] == pytest.approx(
+        p["start_up"] + PROJECTED_SERVES * p["wall_per_serve"])
+    assert p["speedup"] == pytest.approx(1.0 / p["wall_per_serve"])

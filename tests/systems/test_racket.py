@@ -14,9 +14,9 @@ from tt_drake.systems.world import WorldConfig, add_world, make_simulator, set_b
 class ArmWorld:
     """Table, ball and the WAM holding AWAITING under InverseDynamicsController."""
 
-    def __init__(self):
+    def __init__(self, config: WorldConfig | None = None):
         builder = DiagramBuilder()
-        self.config = WorldConfig()
+        self.config = config or WorldConfig()
         self.world = world = add_world(builder, self.config)
         plant = world.plant
         add_aerodynamics(builder, world)
@@ -50,9 +50,14 @@ class ArmWorld:
         return log.sample_times(), log.data()[4:7].T, log.data()[10:13].T, n
 
 
-@pytest.fixture(scope="module")
-def arm():
-    return ArmWorld()
+@pytest.fixture(scope="module", params=["recipe", "default scenario"])
+def arm(request):
+    """At DESIGN.md's recipe (accuracy 1e-4) and the default scenario's simulator settings."""
+    if request.param == "recipe":
+        return ArmWorld()
+    from tt_drake.diagrams.scenario import load_scenario
+
+    return ArmWorld(load_scenario().world)
 
 
 def test_racket_restitution_at_8_m_per_s(arm):

@@ -42,3 +42,26 @@ def test_quintic_demonstration_boundary_states():
     np.testing.assert_allclose(d.qd[-1], [2, -1], atol=1e-12)
     np.testing.assert_allclose(d.qdd[[0, -1]], 0, atol=1e-9)
     np.testing.assert_allclose(np.gradient(d.q, d.t, axis=0)[1:-1], d.qd[1:-1], atol=1e-3)
+
+
+def _run(*episodes):
+    return {"episodes": [dict(seed=i, outcome=o, hit=o != "missed", returned=o == "returned",
+                              on_target=False, faults=[], landing=landing)
+                         for i, (o, landing) in enumerate(episodes)]}
+
+
+def test_serve_comparison_flags_outcome_and_landing_changes():
+    from tt_drake.benchmarks import compare_serve_records
+
+    a = _run(("returned", [0.1, 0.5, 0.76]), ("missed", None), ("returned", [0.0, 0.9, 0.76]))
+    same = _run(("returned", [0.1, 0.5004, 0.76]), ("missed", None),
+                ("returned", [0.0, 0.9, 0.76]))
+    r = compare_serve_records(a, same)
+    assert r["same"] and r["max_landing_shift"] == pytest.approx(4e-4)
+    moved = _run(("returned", [0.1, 0.5, 0.76]), ("net", None), ("returned", [0.0, 0.902, 0.76]))
+    r = compare_serve_records(a, moved)
+    assert not r["same"] and [d["index"] for d in r["differ"]] == [1, 2]
+    assert r["differ"][0]["fields"] == ["outcome", "hit"]
+    assert r["differ"][1]["fields"] == ["landing"]
+    with pytest.raises(ValueError):
+        compare_serve_records(a, _run(("missed", None)))

@@ -118,3 +118,51 @@ def test_a_fast_hit_near_a_limit_stops_inside_it():
     ext = plan_extremes(plan)
     assert np.all(ext["q_max"] <= LIMITS.upper - LIMITS.margin + 1e-9)
     assert np.all(ext["q_min"] >= LIMITS.lower + LIMITS.margin - 1e-9)
+
+
+def _segments():
+    from tt_drake.dmp import Trajectory
+    from tt_drake.learned_player import SampledSegment
+
+    rng = np.random.default_rng(4)
+    t = np.linspace(0.0, 0.5, 251)
+    sampled = SampledSegment.from_trajectory(0.1, Trajectory(t, *rng.normal(size=(3, 251, 7))))
+    return [Quintic.fit(0.3, 0.7, *rng.normal(size=(6, 7))), sampled]
+
+
+@pytest.mark.parametrize("index", [0, 1])
+def test_evaluate_many_gives_the_values_of_evaluate(index):
+    seg = _segments()[index]
+    # Before, inside, a hair past and well past the end (continued at zero acceleration).
+    times = np.r_[seg.t0 - 0.05, np.arange(seg.t0, seg.t_end + 1e-9, 0.013), seg.t_end + 5e-10,
+                  seg.t_end + 0.2]
+    q, v, a = seg.evaluate_many(times)
+    for i, t in enumerate(times):
+        for got, want in zip((q[i], v[i], a[i]), seg.evaluate(t), strict=True):
+            np.testing.assert_array_equal(got, want)
+    assert not np.any(a[-1]) and np.any(a[1])
+
+
+def test_effort_check_is_the_sampled_bound_and_stops_at_the_first_excess():
+    from tt_drake.stages import StagePlan, within_effort
+
+    seg = _segments()[0]
+    plan = StagePlan([(HITTING, seg)])
+    calls = []
+
+    def law(q, qd, qdd):  # a stand-in for inverse dynamics
+        return 3.0 * qdd + qd
+
+    def torques(q, qd, qdd):
+        calls.append(q.copy())
+        return law(q, qd, qdd)
+
+    times = np.arange(seg.t0, seg.t_end + 1e-9, 1.0 / 50.0)
+    sampled = [np.abs(law(*seg.evaluate(t))).max() for t in times]
+    peak = max(sampled)
+    assert within_effort(plan, torques, np.full(7, peak))
+    assert len(calls) == times.size
+    calls.clear()
+    assert not within_effort(plan, torques, np.full(7, 0.999 * peak))
+    first = next(i for i, m in enumerate(sampled) if m > 0.999 * peak)
+    assert len(calls) == first + 1

@@ -1,0 +1,46 @@
+"""CPU time per serve episode of one player, in this process (docs/performance.md).
+
+    OPENBLAS_NUM_THREADS=1 python docs/examples/serve_cpu.py momp [--serves 10] [--seed 3]
+
+Builds the serve diagram once (learned players: the shipped artefacts in models/learned/), runs
+one warm-up episode and prints the CPU time (``time.process_time``) per episode over ``--serves``
+episodes, and that of building the diagram. Run it alternately in two checkouts to compare them
+on a loaded machine, where wall times mostly measure the other processes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
+from tt_drake.diagrams.scenario import load_scenario
+
+LEARNED = Path(__file__).resolve().parents[2] / "models" / "learned"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("player")
+    ap.add_argument("--serves", type=int, default=10)
+    ap.add_argument("--seed", type=int, default=3)
+    args = ap.parse_args()
+    scenario = load_scenario()
+    scenario.learned.library = str(LEARNED / "library.npz")
+    scenario.learned.crkr = str(LEARNED / "crkr.npz")
+    scenario.learned.predictor = str(LEARNED / "predictor.npz")
+    c0 = time.process_time()
+    diagram = ServeDiagram(scenario, args.player)
+    build = time.process_time() - c0
+    diagram.run(episode_seed(args.seed, 0))
+    c0 = time.process_time()
+    for i in range(args.serves):
+        diagram.run(episode_seed(args.seed, i))
+    cpu = 1e3 * (time.process_time() - c0) / args.serves
+    print(f"{args.player}: {cpu:.1f} CPU ms per serve over {args.serves} serves (seed "
+          f"{args.seed}); building the diagram (and loading a learned player) {build:.2f} CPU s")
+
+
+if __name__ == "__main__":
+    main()
