@@ -71,15 +71,16 @@ def add_vision(builder: DiagramBuilder, world: World, scenario: Scenario):
 
 
 def _analytical_player(builder: DiagramBuilder, world: World, controller,
-                       scenario: Scenario) -> list:
-    """The teacher: camera -> estimator -> physical-model planner -> polynomial stages."""
+                       scenario: Scenario, player_type=None) -> list:
+    """The teacher: camera -> estimator -> physical-model planner -> polynomial stages.
+    ``player_type``: a subclass of AnalyticalPlayer to wire instead (the Gymnasium envs)."""
     from tt_drake.systems.analytical_player import AnalyticalPlayer, PlannerConfig, StrokePlanner
 
     camera, estimator = add_vision(builder, world, scenario)
     config = PlannerConfig(target_x=scenario.referee.target_x, target_y=scenario.referee.target_y)
     player = builder.AddNamedSystem("analytical_player",
-                                    AnalyticalPlayer(StrokePlanner(config=config),
-                                                     setpoint_lead=SETPOINT_LEAD))
+                                    (player_type or AnalyticalPlayer)(StrokePlanner(config=config),
+                                                                      setpoint_lead=SETPOINT_LEAD))
     builder.Connect(estimator.GetOutputPort("state"), player.GetInputPort("estimated_state"))
     builder.Connect(estimator.GetOutputPort("status"), player.GetInputPort("estimator_status"))
     add_servo_hold(builder, player.GetOutputPort("desired_state"),

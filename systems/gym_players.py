@@ -1,0 +1,155 @@
+"""Players that a Gymnasium environment drives (:mod:`tt_drake.diagrams.gym_envs`).
+
+:class:`StrokeOffsetPlayer` is the analytical player (the teacher) with one difference: at the
+planning tick at which its hitting stage has begun (the player commits to its last stroke and
+stops re-planning, paper section III-A) it ends the simulation step
+(``EventStatus.ReachedTermination``), so that an episodic environment can show the stroke's
+stimulus to an agent and let it change the stroke's end before the simulation goes on
+(:meth:`StrokeOffsetPlayer.apply_offset`). An offset of zero leaves the plan exactly as the
+analytical player made it.
+
+:class:`SetpointIncrementPlayer` takes an action every control period: joint set-point
+increments. Ports: input ``increment`` (7, each in [-1, 1]); outputs ``desired_state`` (14) and
+``desired_acceleration`` (7) for the servo holds, as the other players.
+"""
+
+import dataclasses
+
+import numpy as np
+from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
+
+from tt_drake import wam_params as wp
+from tt_drake.stages import AWAITING, FOLLOW_THROUGH, HITTING, Quintic, follow_through_time
+from tt_drake.systems.analytical_player import AnalyticalPlayer, Stroke, _PlayerState
+
+
+class StrokeOffsetPlayer(AnalyticalPlayer):
+    """The analytical player, pausing the simulation when it commits (module docstring)."""
+
+    def _update(self, context, state):
+        was_committed = self.player_state(context).committed
+        super()._update(context, state)
+        new = state.get_mutable_abstract_state(self._state_index).get_value()
+        if new.committed and not was_committed:
+            return EventStatus.ReachedTermination(self, "committed to the stroke")
+        return EventStatus.Succeeded()
+
+    def apply_offset(self, context, dq_hit, dqd_hit) -> Stroke:
+        """Re-fit the committed stroke to end at (theta_hit + dq_hit, theta_dot_hit + dqd_hit),
+        clipped to the joint position limits (less their margin) and velocity limits.
+
+        The hitting segment keeps its start (time and state) and duration; the follow-through and
+        the return to the awaiting posture are re-planned from the new end as
+        :func:`tt_drake.stages.plan_stroke` plans them. Segments before the hitting stage are
+        kept. With zero offsets the plan is rebuilt bit for bit. Returns the new stroke."""
+        old = self.player_state(context)
+        if not old.committed or old.stroke is None:
+            raise RuntimeError("the player has not committed to a stroke")
+        planner = self.planner
+        limits, times = planner.limits, planner.config.times
+        index = next(i for i, (stage, _) in enumerate(old.plan.segments) if stage == HITTING)
+        hit_old = old.plan.segments[index][1]
+        stroke = old.stroke
+        q_hit = np.clip(stroke.q_hit + np.asarray(dq_hit, dtype=float),
+                        limits.lower + limits.margin, limits.upper - limits.margin)
+        qd_hit = np.clip(stroke.qd_hit + np.asarray(dqd_hit, dtype=float),
+                         -limits.velocity, limits.velocity)
+        zero = np.zeros(7)
+        q0, v0, a0 = hit_old.evaluate(hit_old.t0)
+        hit = Quintic.fit(hit_old.t0, hit_old.duration, q0, v0, a0, q_hit, qd_hit, zero)
+        t_follow = follow_through_time(q_hit, qd_hit, limits, times)
+        q_end = limits.clip(q_hit + 0.5 * t_follow * qd_hit)
+        follow = Quintic.fit(stroke.t_hit, t_follow, q_hit, qd_hit, zero, q_end, zero, zero)
+        back = Quintic.fit(follow.t_end, times.return_to_awaiting, q_end, zero, zero,
+                           planner.q_await, zero, zero)
+        plan = type(old.plan)(old.plan.segments[:index] + [
+            (HITTING, hit), (FOLLOW_THROUGH, follow), (AWAITING, back)])
+        new_stroke = dataclasses.replace(stroke, q_hit=q_hit, qd_hit=qd_hit)
+        state = _PlayerState(plan, new_stroke, True, old.bounce_spin, old.seen)
+        context.get_mutable_abstract_state(self._state_index).set_value(state)
+        return new_stroke
+
+
+class SetpointIncrementPlayer(LeafSystem):
+    """Joint set-points moved by the agent: every ``1 / rate`` seconds it reads ``increment``
+    a in [-1, 1]^7 and moves the set-point by dq = a * max_increment over the next period, along
+    a straight line at constant velocity:
+
+        q_d(t) = q_k + s dq,  q_dot_d = dq * rate,  q_ddot_d = 0,  s = (t - t_k) * rate in [0, 1],
+
+    with q_{k+1} = q_k + dq; dq is shortened so that q_{k+1} stays within the joint limits (less
+    the planner's 0.05 rad margin). ``max_increment`` defaults to the joint velocity limits times
+    the period: a = +-1 moves the set-point at the WAM's speed limit. The set-point starts at the
+    awaiting posture.
+
+    The updates happen at k / rate + ``offset``. A Gymnasium step advances the simulation from
+    t to t + 1 / rate in floating point: with ``offset`` = 0 an update can fall on either side of
+    a step's end, so that the environment uses one servo tick as the offset (every step then
+    holds exactly one update, reading that step's action).
+
+    The discrete state is (t_k, q_k, dq); the outputs evaluate it at ``t + setpoint_lead`` with
+    plain floats (O(1)), as the stage players.
+    """
+
+    def __init__(self, rate: float, setpoint_lead: float = 0.0, max_increment=None,
+                 offset: float = 0.0):
+        super().__init__()
+        self.rate = float(rate)
+        self.setpoint_lead = float(setpoint_lead)
+        limit = np.asarray(wp.VELOCITY_LIMIT, dtype=float) / self.rate
+        self.max_increment = limit if max_increment is None else np.asarray(max_increment, float)
+        margin = 0.05
+        self.lower = np.asarray(wp.JOINT_LOWER, dtype=float) + margin
+        self.upper = np.asarray(wp.JOINT_UPPER, dtype=float) - margin
+        self._action = self.DeclareVectorInputPort("increment", 7)
+        x0 = np.r_[0.0, np.asarray(wp.AWAITING, dtype=float), np.zeros(7)]
+        self._xd = self.DeclareDiscreteState(x0)
+        self.DeclarePeriodicDiscreteUpdateEvent(1.0 / self.rate, float(offset), self._update)
+        deps = {self.xd_ticket()}
+        self.DeclareVectorOutputPort("desired_state", BasicVector(14), self._calc_state,
+                                     prerequisites_of_calc=deps)
+        self.DeclareVectorOutputPort("desired_acceleration", BasicVector(7), self._calc_accel,
+                                     prerequisites_of_calc=deps)
+
+    def _update(self, context, discrete_state):
+        x = context.get_discrete_state(self._xd).get_value()
+        q = np.clip(x[1:8] + x[8:15], self.lower, self.upper)
+        a = np.clip(np.nan_to_num(self._action.Eval(context)), -1.0, 1.0)
+        dq = np.clip(q + a * self.max_increment, self.lower, self.upper) - q
+        discrete_state.set_value(self._xd, np.r_[context.get_time(), q, dq])
+
+    def _calc_state(self, context, output):
+        x = context.get_discrete_state(self._xd).get_value()
+        s = min(max((context.get_time() + self.setpoint_lead - x[0]) * self.rate, 0.0), 1.0)
+        out = output.get_mutable_value()
+        for i in range(7):
+            out[i] = x[1 + i] + s * x[8 + i]
+            out[7 + i] = x[8 + i] * self.rate
+
+    def _calc_accel(self, context, output):
+        output.get_mutable_value()[:] = 0.0
+
+
+class StepObservation(LeafSystem):
+    """The step-based environment's observation (22): the arm's state (q, q_dot), the
+    estimator's ball state (p, v) and status (tracking flag, time of the estimate: 0 before the
+    first frame), each clipped to :attr:`high` (so that it always lies in the observation space:
+    joints within +-2 pi rad and +-50 rad/s, the ball within +-10 m and +-50 m/s, times within
+    [0, 60] s). Inputs ``arm_state`` (14), ``ball_state`` (6), ``ball_status`` (2); output
+    ``observation``."""
+
+    high = np.r_[np.full(7, 2 * np.pi), np.full(7, 50.0), np.full(3, 10.0), np.full(3, 50.0),
+                 1.0, 60.0]
+    low = np.r_[-high[:20], 0.0, 0.0]
+
+    def __init__(self):
+        super().__init__()
+        self.DeclareVectorInputPort("arm_state", 14)
+        self.DeclareVectorInputPort("ball_state", 6)
+        self.DeclareVectorInputPort("ball_status", 2)
+        self.DeclareVectorOutputPort("observation", BasicVector(22), self._calc)
+
+    def _calc(self, context, output):
+        x = np.r_[self.get_input_port(0).Eval(context), self.get_input_port(1).Eval(context),
+                  self.get_input_port(2).Eval(context)]
+        output.SetFromVector(np.clip(np.nan_to_num(x, nan=0.0), self.low, self.high))
