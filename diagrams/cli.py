@@ -1,7 +1,9 @@
 """The ``tt-drake`` command.
 
     tt-drake serve  --player idle --serves N --seed S [--scenario default] [--distribution D]
+                    [--spin-max W] [--perception camera|oracle] [--ceiling]
                     [--html out.html] [--json out.json]
+    tt-drake serves --info [--distribution D]   (the real-ball pools' counts, docs/serves.md)
     tt-drake bench  [--serves N] [--json out.json]
     tt-drake collect --player analytical --serves N --seed S --out DIR [--workers W]
     tt-drake models  (rewrite the generated model files in models/)
@@ -40,7 +42,11 @@ def _add_scenario_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scenario", default="default",
                    help="scenario name (models/<name>.yaml) or YAML path (default: default)")
     p.add_argument("--distribution", default=None,
-                   help="override the launcher's serve distribution: default, real or fixed")
+                   help="override the launcher's serve distribution: default, spin, real, "
+                        "real-train, real-test, rally, rally-train, rally-test or fixed")
+    p.add_argument("--spin-max", type=float, default=None,
+                   help="override the launcher's spin per axis (rad/s; 0: the distribution's "
+                        "default, 100 for spin)")
 
 
 def _add_learned_options(p: argparse.ArgumentParser) -> None:
@@ -65,6 +71,12 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--quiet", action="store_true", help="no progress bar")
     serve.add_argument("--workers", type=_positive_int, default=1,
                        help="parallel worker processes (not with --html; default 1)")
+    serve.add_argument("--perception", choices=("camera", "oracle"), default=None,
+                       help="what the player sees: camera (+ EKF) or oracle (the true ball "
+                            "state); default: the scenario's (camera)")
+    serve.add_argument("--ceiling", action="store_true",
+                       help="also play the same serves with the oracle analytical player and "
+                            "report returnable_rate and return_rate_of_returnable")
     _add_scenario_options(serve)
     _add_learned_options(serve)
 
@@ -85,6 +97,11 @@ def build_parser() -> argparse.ArgumentParser:
                          help="parallel worker processes (default: all cores)")
     collect.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_scenario_options(collect)
+
+    pools = sub.add_parser("serves", help="the serve distributions' real-ball pools")
+    pools.add_argument("--info", action="store_true",
+                       help="print how many balls each pool (and split) holds")
+    _add_scenario_options(pools)
 
     sub.add_parser("models", help="rewrite the generated model files in models/")
 
@@ -135,7 +152,23 @@ def _scenario(args):
     if args.distribution is not None:
         scenario.launcher.distribution = args.distribution
         validate(scenario, "--distribution")
+    if args.spin_max is not None:
+        scenario.launcher.spin_max = args.spin_max
+        validate(scenario, "--spin-max")
+    if getattr(args, "perception", None) is not None:
+        scenario.perception = args.perception
+    _check_serves(scenario)
     return scenario
+
+
+def _check_serves(scenario) -> None:
+    """Fail with one line before any simulation if the launcher's data file is unusable (a
+    split asked of a file without ids, a malformed file)."""
+    from tt_drake.serves import ServeSampler
+
+    c = scenario.launcher
+    ServeSampler(c.distribution, c.spin_max, c.real_serves or None,
+                 rally_path=c.rallies or None).check()
 
 
 def _check_player(name: str) -> None:
@@ -160,11 +193,30 @@ def _serve(args) -> None:
     scenario = _scenario(args)
     _check_learned(args.player, scenario)
     data = run_serves(scenario, args.player, args.serves, args.seed, args.html, args.json,
-                      progress=not args.quiet, workers=args.workers)
+                      progress=not args.quiet, workers=args.workers, ceiling=args.ceiling)
     print(format_summary(data))
     for path in (args.json, args.html):
         if path:
             print(f"wrote {path}")
+
+
+def _serves(args) -> None:
+    from tt_drake.serves import DISTRIBUTIONS, POOLS, pool_counts
+
+    if not args.info:
+        raise CliError("nothing asked: use --info")
+    scenario = _scenario(args)
+    c = scenario.launcher
+    names = ([args.distribution] if args.distribution is not None
+             else [d for d in DISTRIBUTIONS if d.partition("-")[0] in POOLS])
+    for name in names:
+        n = pool_counts(name, c.real_serves or None, c.rallies or None)
+        if n["pool"] is None:
+            print(f"{name}: drawn by the launcher, no pool")
+            continue
+        split = "" if "-" not in name else f" in the {name.partition('-')[2]} split"
+        print(f"{name}: {n['pool']} of {n['in_split']} balls{split} reach the robot's half "
+              f"({n['records']} records in {n['file']})")
 
 
 def _bench(args) -> None:
@@ -239,7 +291,7 @@ def _reproduce(args) -> None:
 
 
 COMMANDS = {"reproduce": _reproduce, "serve": _serve, "bench": _bench, "collect": _collect,
-            "models": _models,
+            "models": _models, "serves": _serves,
             "train-predictor": _train_predictor, "eval-predictor": _eval_predictor,
             "train": _train}
 

@@ -25,6 +25,7 @@ from pydrake.systems.primitives import ConstantVectorSource, VectorLogSink
 from tt_drake.arm_metrics import arm_metrics
 from tt_drake.diagrams.scenario import Scenario
 from tt_drake.referee_rules import Outcome
+from tt_drake.seeds import episode_seed  # noqa: F401  (re-exported: runners import it here)
 from tt_drake.systems.aerodynamics import add_aerodynamics
 from tt_drake.systems.ball_launcher import BallLauncher
 from tt_drake.systems.referee import Referee
@@ -52,8 +53,16 @@ def _idle_player(builder: DiagramBuilder, world: World, controller, scenario: Sc
     return []
 
 
-def add_vision(builder: DiagramBuilder, world: World, scenario: Scenario):
-    """Camera (60 Hz, noisy) -> ball-flight estimator; returns (camera, estimator)."""
+def add_perception(builder: DiagramBuilder, world: World, scenario: Scenario):
+    """What the players see, by ``scenario.perception``: ``camera`` (60 Hz, noisy) -> ball-flight
+    estimator, or ``oracle`` (the true ball state at the camera's frames, no noise). Returns
+    (the systems that draw random numbers, the system with the estimator's output ports)."""
+    if scenario.perception == "oracle":
+        from tt_drake.systems.ball_oracle import BallOracle
+
+        oracle = builder.AddNamedSystem("ball_oracle", BallOracle())
+        builder.Connect(world.plant.get_state_output_port(world.ball), oracle.get_input_port(0))
+        return [], oracle
     from tt_drake.systems.ball_camera import BallCamera
     from tt_drake.systems.ball_flight_estimator import BallFlightEstimator
 
@@ -61,7 +70,7 @@ def add_vision(builder: DiagramBuilder, world: World, scenario: Scenario):
     builder.Connect(world.plant.get_state_output_port(world.ball), camera.get_input_port(0))
     estimator = builder.AddNamedSystem("ball_flight_estimator", BallFlightEstimator())
     builder.Connect(camera.GetOutputPort("measurement"), estimator.GetInputPort("measurement"))
-    return camera, estimator
+    return [camera], estimator
 
 
 def _analytical_player(builder: DiagramBuilder, world: World, controller,
@@ -69,7 +78,7 @@ def _analytical_player(builder: DiagramBuilder, world: World, controller,
     """The teacher: camera -> estimator -> physical-model planner -> polynomial stages."""
     from tt_drake.systems.analytical_player import AnalyticalPlayer, PlannerConfig, StrokePlanner
 
-    camera, estimator = add_vision(builder, world, scenario)
+    seeded, estimator = add_perception(builder, world, scenario)
     config = PlannerConfig(target_x=scenario.referee.target_x, target_y=scenario.referee.target_y)
     player = builder.AddNamedSystem("analytical_player",
                                     AnalyticalPlayer(StrokePlanner(config=config),
@@ -78,7 +87,7 @@ def _analytical_player(builder: DiagramBuilder, world: World, controller,
     builder.Connect(estimator.GetOutputPort("status"), player.GetInputPort("estimator_status"))
     add_servo_hold(builder, player.GetOutputPort("desired_state"),
                    player.GetOutputPort("desired_acceleration"), controller)
-    return [camera]
+    return seeded
 
 
 def load_learned_player(scenario: Scenario, primitives: bool = True) -> dict:
@@ -133,7 +142,7 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     from tt_drake.systems.momp_player import MoMPTrajectorySource
 
     learned = load_learned_player(scenario, primitives)
-    camera, estimator = add_vision(builder, world, scenario)
+    seeded, estimator = add_perception(builder, world, scenario)
     # Early predictions start the MoMP player's preparation stage at detection (paper section
     # III-C). The crkr player (the teacher's quintic stages, section III-B.2) waits for the final
     # prediction: with ~0.5 s left at detection its stages leave no room for a preparation, so
@@ -166,7 +175,7 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
                     player.GetInputPort("configuration_valid"))
     add_servo_hold(builder, player.GetOutputPort("desired_state"),
                    player.GetOutputPort("desired_acceleration"), controller)
-    return [camera]
+    return seeded
 
 
 def _momp_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario) -> list:
@@ -451,12 +460,6 @@ class ServeDiagram:
         # of tick k - 1.
         held = np.vstack([state.data(), accel.data()]).T
         return state.sample_times()[:-1].copy(), held[1:].copy()
-
-
-def episode_seed(base_seed: int, index: int) -> int:
-    """The seed of episode ``index`` of a run with ``base_seed``; any episode can be replayed
-    alone with ``ServeDiagram.run(episode_seed(base_seed, index))``."""
-    return int(np.random.SeedSequence([base_seed, index]).generate_state(1)[0])
 
 
 def summarize(results: list[EpisodeResult]) -> dict:

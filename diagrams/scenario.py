@@ -58,6 +58,9 @@ class Scenario:
     # An episode lasts until the predicted crossing of the hitting plane plus this long (s).
     after_crossing: float = 1.2
     learned: LearnedPlayerConfig = field(default_factory=LearnedPlayerConfig)
+    # What the players see: ``camera`` (60 Hz, noisy, through the EKF) or ``oracle`` (the
+    # simulator's true ball state at 60 Hz, no noise; docs/serves.md).
+    perception: str = "camera"
 
 
 class ScenarioError(ValueError):
@@ -89,11 +92,17 @@ def load_scenario(name_or_path: str = "default") -> Scenario:
 def validate(scenario: Scenario, origin: object = "scenario") -> None:
     """Checks the YAML schema cannot express."""
     from tt_drake.serves import DISTRIBUTIONS
+    from tt_drake.systems.ball_oracle import PERCEPTIONS
 
     problems = []
     if scenario.launcher.distribution not in DISTRIBUTIONS:
         problems.append(f"launcher.distribution {scenario.launcher.distribution!r} is not one of "
                         f"{', '.join(DISTRIBUTIONS)}")
+    if not scenario.launcher.spin_max >= 0.0:
+        problems.append(f"launcher.spin_max must be >= 0 rad/s, got {scenario.launcher.spin_max}")
+    if scenario.perception not in PERCEPTIONS:
+        problems.append(f"perception {scenario.perception!r} is not one of "
+                        f"{', '.join(PERCEPTIONS)}")
     if scenario.world.simulator.max_step_size <= 0:
         problems.append("world.simulator.max_step_size must be > 0")
     if scenario.referee_rate <= 0:
