@@ -19,6 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+from pydrake.systems.analysis import ApplySimulatorConfig
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, VectorLogSink
 
@@ -250,9 +251,10 @@ class ServeDiagram:
         add_player = PLAYERS[player] if isinstance(player, str) else player
         self.scenario = scenario
         # The referee ends an episode once the return's outcome is decided, except when the
-        # whole stroke is wanted: demonstrations (the return to the awaiting posture is one) and
-        # recordings.
-        self.end_when_decided = (not (record or log_ball or meshcat is not None)
+        # whole stroke is wanted: demonstrations (the return to the awaiting posture is one).
+        # A recording (``log_ball``) ends it as an unrecorded run does, and is extended after the
+        # result is taken (:meth:`extend`): recording is observation only.
+        self.end_when_decided = (not (record or meshcat is not None)
                                  if end_when_decided is None else end_when_decided)
         builder = DiagramBuilder()
         world = add_world(builder, scenario.world)
@@ -266,6 +268,7 @@ class ServeDiagram:
         builder.Connect(plant.get_contact_results_output_port(), self.referee.get_input_port(2))
         self.controller = None
         self.seeded = [self.launcher]
+        period = 1.0 / scenario.referee_rate
         if world.robot is not None:
             from tt_drake.systems.wam import add_wam_controller
 
@@ -274,7 +277,6 @@ class ServeDiagram:
             self.seeded += add_player(builder, world, self.controller, scenario)
             # Arm state and commanded torques at the referee's rate (aligned events: no extra
             # integrator stops), for joint-limit and saturation metrics.
-            period = 1.0 / scenario.referee_rate
             self.arm_logger = builder.AddNamedSystem("arm_logger", VectorLogSink(14, period))
             builder.Connect(plant.get_state_output_port(world.robot),
                             self.arm_logger.get_input_port())
@@ -300,23 +302,25 @@ class ServeDiagram:
             self.recorder = DemonstrationRecorder(builder, world, scenario)
         self.ball_logger = self.estimate_logger = self.prediction_logger = None
         if log_ball:
-            self.ball_logger = builder.AddNamedSystem("ball_logger", VectorLogSink(13, 1.0 / 120))
+            # Every recording logger samples at the referee's rate: no event time the unrecorded
+            # diagram lacks, so the error-controlled integrator takes the same steps.
+            self.ball_logger = builder.AddNamedSystem("ball_logger", VectorLogSink(13, period))
             builder.Connect(plant.get_state_output_port(world.ball),
                             self.ball_logger.get_input_port())
             # What the robot believes: the estimated path and the predicted hitting point.
             if builder.HasSubsystemNamed("ball_flight_estimator"):
                 estimator = builder.GetSubsystemByName("ball_flight_estimator")
                 self.estimate_logger = builder.AddNamedSystem(
-                    "estimate_logger", VectorLogSink(6, 1.0 / 60))
+                    "estimate_logger", VectorLogSink(6, period))
                 builder.Connect(estimator.GetOutputPort("state"),
                                 self.estimate_logger.get_input_port())
                 self.status_logger = builder.AddNamedSystem(
-                    "estimate_status_logger", VectorLogSink(2, 1.0 / 60))
+                    "estimate_status_logger", VectorLogSink(2, period))
                 builder.Connect(estimator.GetOutputPort("status"),
                                 self.status_logger.get_input_port())
             if self.player is not None:
                 self.prediction_logger = builder.AddNamedSystem(
-                    "prediction_logger", VectorLogSink(4, 1.0 / 60))
+                    "prediction_logger", VectorLogSink(4, period))
                 builder.Connect(self.player.GetOutputPort("predicted_hit"),
                                 self.prediction_logger.get_input_port())
         self.visualizer = None
@@ -369,14 +373,16 @@ class ServeDiagram:
         """The momp player's primitive library (None for other players)."""
         return getattr(self.player, "library", None)
 
-    def run(self, seed: int, start_time: float = 0.0, gamma=None) -> EpisodeResult:
-        """Simulate one serve episode from ``seed``, starting the clock at ``start_time`` (used to
-        lay several episodes end to end in one Meshcat recording). ``gamma``: the momp player's
-        responsibilities for this episode (default: the loaded library's)."""
+    def run(self, seed: int, gamma=None) -> EpisodeResult:
+        """Simulate one serve episode from ``seed``, from t = 0 (a recording places it on its
+        own timeline afterwards). ``gamma``: the momp player's responsibilities for this episode
+        (default: the loaded library's)."""
         wall = time.perf_counter()
         self._set_gamma(gamma)
         self.context.SetTimeStateAndParametersFrom(self._initial)
-        self.context.SetTime(start_time)
+        # A fresh integrator: its step-size history would make an episode depend on the ones
+        # before it (a landing point moved 7e-7 m) and on a recording's extension of them.
+        ApplySimulatorConfig(self.scenario.world.simulator, self.simulator)
         for k, system in enumerate(self.seeded):  # the launcher gets the episode seed itself
             system.set_seed(system.GetMyMutableContextFromRoot(self.context),
                             seed if k == 0 else episode_seed(seed, k))
@@ -389,8 +395,9 @@ class ServeDiagram:
             self.recorder.clear(self.context)
         max_duration = float(serve.crossing.t + self.scenario.after_crossing)
         self.simulator.Initialize()
-        self.simulator.AdvanceTo(start_time + max_duration)  # the referee may end it earlier
-        duration = self.context.get_time() - start_time
+        self.simulator.AdvanceTo(max_duration)  # the referee may end it earlier
+        self._end = max_duration
+        duration = self.context.get_time()
         outcome = self.referee.GetOutputPort("outcome").Eval(
             self.referee.GetMyContextFromRoot(self.context))
         path = None
@@ -412,6 +419,28 @@ class ServeDiagram:
                 self.player.GetMyContextFromRoot(self.context)))
         return EpisodeResult(seed, list(serve.launch_state), list(crossing), duration, outcome,
                              time.perf_counter() - wall, path, arm, record, stroke)
+
+    def extend(self, seconds: float) -> None:
+        """Simulate the last episode up to ``seconds`` longer (never past its time limit, nor
+        past the ball reaching the floor), after :meth:`run` took its result: a recording shows
+        the ball's flight after the decided landing. Changes no result already returned."""
+        end = min(self.context.get_time() + seconds, self._end)
+        if end > self.context.get_time():
+            self.simulator.AdvanceTo(end)
+
+    def poses(self) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """The logged times (K,), ball positions (K, 7: quaternion w, x, y, z, then p) and arm
+        joint angles (K, 7, or None without a robot) of the last episode; needs ``log_ball``."""
+        if self.ball_logger is None:
+            raise PlayerError("poses are logged only with log_ball=True")
+        log = self.ball_logger.FindLog(self.context)
+        times, ball = log.sample_times().copy(), log.data()[:7].T.copy()
+        arm = None
+        if self.controller is not None:
+            arm = self.arm_logger.FindLog(self.context).data()[:7].T.copy()
+            k = min(len(arm), len(times))
+            times, ball, arm = times[:k], ball[:k], arm[:k]
+        return times, ball, arm
 
     def _set_gamma(self, gamma) -> None:
         library = self.library

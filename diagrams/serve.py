@@ -23,8 +23,10 @@ def run_serves(scenario: Scenario, player: str, serves: int, seed: int, html: st
     """Run ``serves`` episodes; episode i uses ``episode_seed(seed, i)``. Returns the JSON dict.
 
     With ``workers`` > 1 the episodes run in that many processes (not with ``html``: the
-    recording lives in this process's Meshcat). A pool distribution deals its serves without
-    repeats within the run (``LauncherConfig.run_seed``). ``ceiling``: see the module
+    recording lives in this process's Meshcat). ``html``: a Meshcat recording of the episodes
+    played one after the other; recording is observation only (the episodes and their results
+    are those of the same command without ``html``). A pool distribution deals its serves
+    without repeats within the run (``LauncherConfig.run_seed``). ``ceiling``: see the module
     docstring."""
     for path in (html, json_path):
         if path:
@@ -34,42 +36,42 @@ def run_serves(scenario: Scenario, player: str, serves: int, seed: int, html: st
     if not html and workers > 1:
         return _run_parallel(scenario, player, serves, seed, json_path, progress, workers,
                              ceiling)
-    meshcat = None
+    diagram = ServeDiagram(scenario, player, log_ball=bool(html))
+    recording = None
     if html:
-        from tt_drake.diagrams.recording import make_meshcat, mark_target
+        from tt_drake.diagrams.recording import Recording
 
-        meshcat = make_meshcat()
-        mark_target(meshcat, scenario.referee.target_x, scenario.referee.target_y,
-                    scenario.referee.target_radius)
-    diagram = ServeDiagram(scenario, player, meshcat=meshcat, log_ball=bool(html))
-    if meshcat is not None:
-        diagram.visualizer.StartRecording()
-    results = []
-    clock = 0.0
-    bar = tqdm(range(serves), desc=f"serving ({player})", unit="serve", file=sys.stderr,
-               disable=not progress)
-    for i in bar:
-        result = diagram.run(episode_seed(seed, i), start_time=clock)
-        results.append(result)
-        if meshcat is not None:
-            from tt_drake.diagrams.recording import draw_beliefs, draw_episode, draw_stroke
-
-            draw_episode(meshcat, i, result)
-            draw_stroke(meshcat, i, result.stroke, diagram.library)
-            draw_beliefs(meshcat, diagram.visualizer.get_mutable_recording(), i,
-                         diagram.beliefs)
-            clock += result.duration
-        bar.set_postfix(returned=f"{summarize(results)['return_rate']:.0%}")
+        recording = Recording(scenario, diagram.library)
+    seeds = (episode_seed(seed, i) for i in range(serves))
+    results = serve_episodes(diagram, seeds, recording, progress, player, total=serves)
     data = _report(scenario, player, seed, results)
     if ceiling:
         add_ceiling(data, scenario, player, serves, seed, results, progress, workers)
-    if meshcat is not None:
-        diagram.visualizer.StopRecording()
-        diagram.visualizer.PublishRecording()
-        write_text_atomic(html, meshcat.StaticHtml())
+    if recording is not None:
+        write_text_atomic(html, recording.html(data))
     if json_path:
         write_json_atomic(json_path, data)
     return data
+
+
+def serve_episodes(diagram: ServeDiagram, seeds, recording=None, progress: bool = False,
+                   label: str = "", total: int | None = None) -> list:
+    """Run one episode per seed on ``diagram``; with a ``Recording`` (and a diagram built with
+    ``log_ball``), add each to it once its result is taken."""
+    results = []
+    bar = tqdm(seeds, desc=f"serving ({label})", unit="serve", file=sys.stderr, total=total,
+               disable=not progress)
+    for i, seed in enumerate(bar):
+        result = diagram.run(seed)
+        results.append(result)
+        if recording is not None:
+            from tt_drake.diagrams.recording import TAIL
+
+            beliefs = diagram.beliefs
+            diagram.extend(TAIL)  # after the result: the bounce after the decided landing
+            recording.add(i, result, diagram.poses(), beliefs, result.stroke)
+        bar.set_postfix(returned=f"{summarize(results)['return_rate']:.0%}")
+    return results
 
 
 def _report(scenario: Scenario, player: str, seed: int, results: list) -> dict:
