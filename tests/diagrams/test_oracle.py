@@ -72,3 +72,15 @@ def test_camera_perception_keeps_the_camera_and_estimator_and_bad_perception_is_
         assert estimator.GetOutputPort(name).size() == BallOracle().GetOutputPort(name).size()
     with pytest.raises(ScenarioError, match="perception 'sonar' is not one of camera, oracle"):
         validate(Scenario(perception="sonar"))
+
+
+def test_the_oracle_analytical_player_gets_the_true_spin():
+    from tt_drake.diagrams.episodes import ServeDiagram
+
+    d = ServeDiagram(Scenario(perception="oracle"), "analytical")
+    oracle = d.diagram.GetSubsystemByName("ball_oracle")
+    player = d.diagram.GetSubsystemByName("analytical_player")
+    for port, target in (("state", "estimated_state"), ("spin", "estimated_spin"),
+                         ("status", "estimator_status")):
+        assert d.diagram.AreConnected(oracle.GetOutputPort(port), player.GetInputPort(target))
+    assert d.seeded == [d.launcher]  # the oracle draws no random numbers
