@@ -1,7 +1,9 @@
 """The ``tt-drake`` command.
 
     tt-drake serve  --player idle --serves N --seed S [--scenario default] [--distribution D]
+                    [--spin-max W] [--perception camera|oracle] [--ceiling]
                     [--html out.html] [--json out.json]
+    tt-drake serves --info [--distribution D]   (the real-ball pools' counts, docs/serves.md)
     tt-drake bench  [--serves N] [--json out.json]
     tt-drake collect --player analytical --serves N --seed S --out DIR [--workers W]
     tt-drake models  (rewrite the generated model files in models/)
@@ -122,6 +124,9 @@ def _add_scenario_options(p: argparse.ArgumentParser) -> None:
                    help="scenario name (models/<name>.yaml) or YAML path")
     p.add_argument("--distribution", default=None, type=_distribution, choices=DISTRIBUTIONS,
                    help="override the launcher's serve distribution (default: the scenario's)")
+    p.add_argument("--spin-max", type=float, default=None,
+                   help="override the launcher's spin per axis (rad/s; 0: the distribution's "
+                        "default, 100 for spin; default: the scenario's)")
 
 
 def _add_learned_options(p: argparse.ArgumentParser) -> None:
@@ -166,6 +171,12 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--quiet", action="store_true", help="no progress bar")
     serve.add_argument("--workers", type=_positive_int, default=1,
                        help="parallel worker processes (not with --html)")
+    serve.add_argument("--perception", choices=("camera", "oracle"), default=None,
+                       help="what the player sees: camera (+ EKF) or oracle (the true ball "
+                            "state); default: the scenario's (camera)")
+    serve.add_argument("--ceiling", action="store_true",
+                       help="also play the same serves with the oracle analytical player and "
+                            "report returnable_rate and return_rate_of_returnable")
     _add_scenario_options(serve)
     _add_learned_options(serve)
 
@@ -189,6 +200,11 @@ def build_parser() -> argparse.ArgumentParser:
                          help="parallel worker processes (default: all cores)")
     collect.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_scenario_options(collect)
+
+    pools = command("serves", help="the serve distributions' real-ball pools")
+    pools.add_argument("--info", action="store_true",
+                       help="print how many balls each pool (and split) holds")
+    _add_scenario_options(pools)
 
     command("models", help="rewrite the generated model files in models/")
 
@@ -240,6 +256,12 @@ def _scenario(args):
     if args.distribution is not None:
         scenario.launcher.distribution = args.distribution
         validate(scenario, "--distribution")
+    if args.spin_max is not None:
+        scenario.launcher.spin_max = args.spin_max
+        validate(scenario, "--spin-max")
+    if getattr(args, "perception", None) is not None:
+        scenario.perception = args.perception
+    _check_serves(scenario)
     return scenario
 
 
@@ -255,6 +277,16 @@ def _use_shipped_artefacts(player: str | None, scenario) -> None:
         str(shipped_artefact(kind)) for kind in ("library", "crkr", "predictor"))
     print(f"tt-drake: the {player} player uses the shipped artefacts in "
           f"{shipped_artefact('library').parent}", file=sys.stderr)
+
+
+def _check_serves(scenario) -> None:
+    """Fail with one line before any simulation if the launcher's data file is unusable (a
+    split asked of a file without ids, a malformed file)."""
+    from tt_drake.serves import ServeSampler
+
+    c = scenario.launcher
+    ServeSampler(c.distribution, c.spin_max, c.real_serves or None,
+                 rally_path=c.rallies or None).check()
 
 
 def _check_player(name: str) -> None:
@@ -282,7 +314,7 @@ def _serve(args) -> None:
     scenario = _scenario(args)
     _check_learned(player, scenario)
     data = run_serves(scenario, player, args.serves, args.seed, args.html, args.json,
-                      progress=not args.quiet, workers=args.workers)
+                      progress=not args.quiet, workers=args.workers, ceiling=args.ceiling)
     print(format_summary(data))
     for path in (args.json, args.html):
         if path:
@@ -291,6 +323,25 @@ def _serve(args) -> None:
         print("tt-drake serve: no --player given, so this was the idle player: it holds its "
               "posture and never swings (0 % returns is expected); try --player analytical or "
               "--player momp", file=sys.stderr)
+
+
+def _serves(args) -> None:
+    from tt_drake.serves import DISTRIBUTIONS, POOLS, pool_counts
+
+    if not args.info:
+        raise CliError("nothing asked: use --info")
+    scenario = _scenario(args)
+    c = scenario.launcher
+    names = ([args.distribution] if args.distribution is not None
+             else [d for d in DISTRIBUTIONS if d.partition("-")[0] in POOLS])
+    for name in names:
+        n = pool_counts(name, c.real_serves or None, c.rallies or None)
+        if n["pool"] is None:
+            print(f"{name}: drawn by the launcher, no pool")
+            continue
+        split = "" if "-" not in name else f" in the {name.partition('-')[2]} split"
+        print(f"{name}: {n['pool']} of {n['in_split']} balls{split} reach the robot's half "
+              f"({n['records']} records in {n['file']})")
 
 
 def _bench(args) -> None:
@@ -370,7 +421,7 @@ def _reproduce(args) -> None:
 
 
 COMMANDS = {"reproduce": _reproduce, "serve": _serve, "bench": _bench, "collect": _collect,
-            "models": _models,
+            "models": _models, "serves": _serves,
             "train-predictor": _train_predictor, "eval-predictor": _eval_predictor,
             "train": _train}
 

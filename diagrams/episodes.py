@@ -26,6 +26,7 @@ from pydrake.systems.primitives import ConstantVectorSource, VectorLogSink
 from tt_drake.arm_metrics import arm_metrics
 from tt_drake.diagrams.scenario import Scenario, validate
 from tt_drake.referee_rules import Outcome
+from tt_drake.seeds import episode_seed  # noqa: F401  (re-exported: runners import it here)
 from tt_drake.systems.aerodynamics import add_aerodynamics
 from tt_drake.systems.ball_launcher import BallLauncher
 from tt_drake.systems.referee import Referee
@@ -58,8 +59,16 @@ def _idle_player(builder: DiagramBuilder, world: World, controller, scenario: Sc
     return []
 
 
-def add_vision(builder: DiagramBuilder, world: World, scenario: Scenario):
-    """Camera (60 Hz, noisy) -> ball-flight estimator; returns (camera, estimator)."""
+def add_perception(builder: DiagramBuilder, world: World, scenario: Scenario):
+    """What the players see, by ``scenario.perception``: ``camera`` (60 Hz, noisy) -> ball-flight
+    estimator, or ``oracle`` (the true ball state at the camera's frames, no noise). Returns
+    (the systems that draw random numbers, the system with the estimator's output ports)."""
+    if scenario.perception == "oracle":
+        from tt_drake.systems.ball_oracle import BallOracle
+
+        oracle = builder.AddNamedSystem("ball_oracle", BallOracle())
+        builder.Connect(world.plant.get_state_output_port(world.ball), oracle.get_input_port(0))
+        return [], oracle
     from tt_drake.systems.ball_camera import BallCamera
     from tt_drake.systems.ball_flight_estimator import BallFlightEstimator
 
@@ -67,7 +76,7 @@ def add_vision(builder: DiagramBuilder, world: World, scenario: Scenario):
     builder.Connect(world.plant.get_state_output_port(world.ball), camera.get_input_port(0))
     estimator = builder.AddNamedSystem("ball_flight_estimator", BallFlightEstimator())
     builder.Connect(camera.GetOutputPort("measurement"), estimator.GetInputPort("measurement"))
-    return camera, estimator
+    return [camera], estimator
 
 
 def _analytical_player(builder: DiagramBuilder, world: World, controller,
@@ -76,16 +85,18 @@ def _analytical_player(builder: DiagramBuilder, world: World, controller,
     ``player_type``: a subclass of AnalyticalPlayer to wire instead (the Gymnasium envs)."""
     from tt_drake.systems.analytical_player import AnalyticalPlayer, PlannerConfig, StrokePlanner
 
-    camera, estimator = add_vision(builder, world, scenario)
+    seeded, estimator = add_perception(builder, world, scenario)
     config = PlannerConfig(target_x=scenario.referee.target_x, target_y=scenario.referee.target_y)
     player = builder.AddNamedSystem("analytical_player",
                                     (player_type or AnalyticalPlayer)(StrokePlanner(config=config),
                                                                       setpoint_lead=SETPOINT_LEAD))
     builder.Connect(estimator.GetOutputPort("state"), player.GetInputPort("estimated_state"))
+    if estimator.HasOutputPort("spin"):  # the oracle's (and the spin-aware EKF's)
+        builder.Connect(estimator.GetOutputPort("spin"), player.GetInputPort("estimated_spin"))
     builder.Connect(estimator.GetOutputPort("status"), player.GetInputPort("estimator_status"))
     add_servo_hold(builder, player.GetOutputPort("desired_state"),
                    player.GetOutputPort("desired_acceleration"), controller)
-    return [camera]
+    return seeded
 
 
 # Artefacts loaded with ``keep`` (the CLI's check), by their files: the next load of the same files
@@ -165,7 +176,7 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     from tt_drake.systems.momp_player import MoMPTrajectorySource
 
     learned = load_learned_player(scenario, primitives)
-    camera, estimator = add_vision(builder, world, scenario)
+    seeded, estimator = add_perception(builder, world, scenario)
     # Early predictions start the MoMP player's preparation stage at detection (paper section
     # III-C). The crkr player (the teacher's quintic stages, section III-B.2) waits for the final
     # prediction: with ~0.5 s left at detection its stages leave no room for a preparation, so
@@ -198,7 +209,7 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
                     player.GetInputPort("configuration_valid"))
     add_servo_hold(builder, player.GetOutputPort("desired_state"),
                    player.GetOutputPort("desired_acceleration"), controller)
-    return [camera]
+    return seeded
 
 
 def _momp_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario) -> list:
@@ -536,12 +547,6 @@ def check_run(seed: int, serves: int | None = None) -> None:
     if serves is not None and (isinstance(serves, bool) or not isinstance(
             serves, (int, np.integer)) or not 1 <= serves <= MAX_SERVES):
         raise SeedError(f"serves must be a whole number in [1, {MAX_SERVES}], got {serves!r}")
-
-
-def episode_seed(base_seed: int, index: int) -> int:
-    """The seed of episode ``index`` of a run with ``base_seed``; any episode can be replayed
-    alone with ``ServeDiagram.run(episode_seed(base_seed, index))``."""
-    return int(np.random.SeedSequence([base_seed, index]).generate_state(1)[0])
 
 
 def summarize(results: list[EpisodeResult]) -> dict:

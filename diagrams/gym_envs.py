@@ -64,7 +64,7 @@ from tt_drake.diagrams.episodes import (
     SETPOINT_LEAD,
     ServeDiagram,
     _analytical_player,
-    add_vision,
+    add_perception,
     episode_seed,
 )
 from tt_drake.diagrams.scenario import Scenario, load_scenario, validate
@@ -191,7 +191,7 @@ class ReturnBallEnv(gym.Env):
 def _setpoint_player(builder, world, controller, scenario: Scenario, rate: float) -> list:
     """Vision, the agent's set-point player and the observation vector, exported as the
     diagram's ``actions`` input and ``observations`` output."""
-    camera, estimator = add_vision(builder, world, scenario)
+    seeded, estimator = add_perception(builder, world, scenario)
     player = builder.AddNamedSystem("setpoint_player",
                                     SetpointIncrementPlayer(rate, setpoint_lead=SETPOINT_LEAD,
                                                             offset=SERVO_PERIOD))
@@ -204,7 +204,7 @@ def _setpoint_player(builder, world, controller, scenario: Scenario, rate: float
     builder.Connect(estimator.GetOutputPort("state"), observations.get_input_port(1))
     builder.Connect(estimator.GetOutputPort("status"), observations.get_input_port(2))
     builder.ExportOutput(observations.get_output_port(), "observations")
-    return [camera]
+    return seeded
 
 
 class ReturnBallStepEnv(DrakeGymEnv):

@@ -61,6 +61,9 @@ class Scenario:
     # An episode lasts until the predicted crossing of the hitting plane plus this long (s).
     after_crossing: float = 1.2
     learned: LearnedPlayerConfig = field(default_factory=LearnedPlayerConfig)
+    # What the players see: ``camera`` (60 Hz, noisy, through the EKF) or ``oracle`` (the
+    # simulator's true ball state at 60 Hz, no noise; docs/serves.md).
+    perception: str = "camera"
 
 
 class ScenarioError(ValueError):
@@ -148,6 +151,12 @@ def _distribution(value):
     return one_of(*DISTRIBUTIONS)(value)
 
 
+def _perception(value):
+    from tt_drake.systems.ball_oracle import PERCEPTIONS
+
+    return one_of(*PERCEPTIONS)(value)
+
+
 def _integration_scheme(value):
     from pydrake.systems.analysis import GetIntegrationSchemes
 
@@ -190,6 +199,7 @@ FIELD_RULES: dict[str, Check] = {
     "world.models.robot": check_model_file,
     "launcher.distribution": _distribution,
     "launcher.spin_max": number(minimum=0.0),
+    "perception": _perception,
     "aerodynamics.drag_k": number(minimum=0.0),
     "aerodynamics.magnus_cl": number(minimum=0.0),
     "referee.target_x": number(),

@@ -1,5 +1,13 @@
-"""``tt-drake serve``: N serves at a player; a summary, JSON results and a Meshcat HTML file."""
+"""``tt-drake serve``: N serves at a player; a summary, JSON results and a Meshcat HTML file.
 
+With ``ceiling`` the same serves are also played by the oracle analytical player (the true ball
+state, no noise: ``Scenario.perception = "oracle"``), whose legal returns mark the serves that
+are physically returnable from the robot's mount; the summary then gains ``returnable_rate``
+(with ``returnable_serves``, the count) and ``return_rate_of_returnable``: the player's legal
+returns among the returnable serves over their number (docs/serves.md).
+"""
+
+import copy
 import sys
 
 from tqdm import tqdm
@@ -12,19 +20,25 @@ from tt_drake.result_fields import serve_fields
 
 
 def run_serves(scenario: Scenario, player: str, serves: int, seed: int, html: str | None = None,
-               json_path: str | None = None, progress: bool = True, workers: int = 1) -> dict:
+               json_path: str | None = None, progress: bool = True, workers: int = 1,
+               ceiling: bool = False) -> dict:
     """Run ``serves`` episodes; episode i uses ``episode_seed(seed, i)``. Returns the JSON dict.
 
     With ``workers`` > 1 the episodes run in that many processes (not with ``html``: the
     recording lives in this process's Meshcat). ``html``: a Meshcat recording of the episodes
     played one after the other; recording is observation only (the episodes and their results
-    are those of the same command without ``html``)."""
+    are those of the same command without ``html``). A pool distribution deals its serves
+    without repeats within the run (``LauncherConfig.run_seed``). ``ceiling``: see the module
+    docstring."""
     check_run(seed, serves)
     for path in (html, json_path):
         if path:
             check_writable(path)
+    scenario = copy.deepcopy(scenario)
+    scenario.launcher.run_seed = seed
     if not html and workers > 1:
-        return _run_parallel(scenario, player, serves, seed, json_path, progress, workers)
+        return _run_parallel(scenario, player, serves, seed, json_path, progress, workers,
+                             ceiling)
     diagram = ServeDiagram(scenario, player, log_ball=bool(html))
     recording = None
     if html:
@@ -34,6 +48,8 @@ def run_serves(scenario: Scenario, player: str, serves: int, seed: int, html: st
     seeds = (episode_seed(seed, i) for i in range(serves))
     results = serve_episodes(diagram, seeds, recording, progress, player, total=serves)
     data = _report(scenario, player, seed, results)
+    if ceiling:
+        add_ceiling(data, scenario, player, serves, seed, results, progress, workers)
     if recording is not None:
         write_text_atomic(html, recording.html(data))
     if json_path:
@@ -66,7 +82,8 @@ def _report(scenario: Scenario, player: str, seed: int, results: list) -> dict:
     (names and units of every vector, :mod:`tt_drake.result_fields`), summary and episodes."""
     return {
         **run_provenance(), "scenario": scenario_dict(scenario), "player": player, "seed": seed,
-        "distribution": scenario.launcher.distribution, "fields": serve_fields(),
+        "distribution": scenario.launcher.distribution, "perception": scenario.perception,
+        "fields": serve_fields(),
         "summary": summarize(results), "episodes": [r.as_dict() for r in results],
     }
 
@@ -90,7 +107,7 @@ def scenario_dict(scenario: Scenario) -> dict:
     return data
 
 
-def _run_parallel(scenario, player, serves, seed, json_path, progress, workers) -> dict:
+def _episodes(scenario, player, serves, seed, progress, workers) -> list:
     from tt_drake.diagrams.parallel import run_episodes
 
     seeds = (episode_seed(seed, i) for i in range(serves))  # streamed, not listed
@@ -102,7 +119,39 @@ def _run_parallel(scenario, player, serves, seed, json_path, progress, workers) 
         bar.update()
         bar.set_postfix(returned=f"{summarize(results)['return_rate']:.0%}")
     bar.close()
+    return results
+
+
+def add_ceiling(data: dict, scenario: Scenario, player: str, serves: int, seed: int,
+                results: list, progress: bool, workers: int) -> None:
+    """Play the run's serves with the oracle analytical player (unless the run is that player)
+    and add the returnable serves to ``data``: per episode ``returnable``, and in the summary
+    ``returnable_rate``, ``returnable_serves``, ``return_rate_of_returnable`` (None when no
+    serve is returnable) and ``returns_of_returnable``."""
+    if player == "analytical" and scenario.perception == "oracle":
+        oracle = results
+    else:
+        teacher = copy.deepcopy(scenario)
+        teacher.perception = "oracle"
+        oracle = _episodes(teacher, "analytical", serves, seed, progress, workers)
+    returnable = [r.outcome.returned for r in oracle]
+    returned = sum(r.outcome.returned and ok for r, ok in zip(results, returnable, strict=True))
+    n = sum(returnable)
+    summary = data["summary"]
+    summary["returnable_rate"] = n / serves if serves else 0.0
+    summary["returnable_serves"] = n
+    summary["returns_of_returnable"] = returned
+    summary["return_rate_of_returnable"] = returned / n if n else None
+    for episode, ok in zip(data["episodes"], returnable, strict=True):
+        episode["returnable"] = bool(ok)
+
+
+def _run_parallel(scenario, player, serves, seed, json_path, progress, workers,
+                  ceiling=False) -> dict:
+    results = _episodes(scenario, player, serves, seed, progress, workers)
     data = _report(scenario, player, seed, results)
+    if ceiling:
+        add_ceiling(data, scenario, player, serves, seed, results, progress, workers)
     if json_path:
         write_json_atomic(json_path, data)
     return data
@@ -110,6 +159,13 @@ def _run_parallel(scenario, player, serves, seed, json_path, progress, workers) 
 
 def format_summary(data: dict) -> str:
     s = data["summary"]
-    return (f"{data['player']} player, {s['serves']} {data['distribution']} serves (seed "
+    line = (f"{data['player']} player, {s['serves']} {data['distribution']} serves (seed "
             f"{data['seed']}): hit {s['hit_rate']:.1%}, legal return {s['return_rate']:.1%}, "
             f"on target {s['target_rate']:.1%}, mean reward {s['mean_reward']:.3f}")
+    if "returnable_rate" in s:
+        of = s["return_rate_of_returnable"]
+        line += (f"; returnable (oracle analytical) {s['returnable_rate']:.1%} "
+                 f"({s['returnable_serves']} serves), legal returns of those "
+                 f"{s['returns_of_returnable']} = "
+                 + ("n/a" if of is None else f"{of:.1%}"))
+    return line

@@ -4,10 +4,12 @@ For each new estimate (at the first planning tick after the estimator's update),
 comes toward the robot and the hitting stage has not begun, the
 :class:`StrokePlanner`
 
-1. predicts the ball's state where it crosses the virtual hitting plane, with the physical model
+1. predicts the ball's state where it crosses the virtual hitting plane (or, for a ball that
+   crosses it too low or not at all, at a point chosen along its path:
+   :func:`tt_drake.hitting_time.choose_hitting_point`), with the physical model
    (:class:`tt_drake.ball_model.CompliantBounceBallModel`) from the estimator's state: the
-   stimulus (p_hit, v_hit, t_hit), and the spin the table bounce gives the ball (the estimator
-   does not observe spin: once the ball has bounced, the spin predicted before is kept);
+   stimulus (p_hit, v_hit, t_hit), and the ball's spin there: the model starts from the
+   estimator's spin and carries it through any bounce still ahead (docs/spin.md);
 2. chooses the outgoing velocity that lands the ball on the target, and the racket normal and
    velocity that produce it (:mod:`tt_drake.racket_law`);
 3. solves the arm: the hitting configuration theta_hit that puts the racket centre at
@@ -26,8 +28,9 @@ limits or asks for more than 90 % of an actuator's effort limit (inverse dynamic
 an acceleration limit alone let a plan ask the shoulder for twice its 75 N m). The player only sees
 what the camera sees: its inputs are the estimator's outputs, never the true ball state.
 
-Ports of :class:`AnalyticalPlayer`: inputs ``estimated_state`` (6: p, v) and ``estimator_status``
-(2: valid, time of the estimate); outputs ``desired_state`` (14: q, q_dot) and
+Ports of :class:`AnalyticalPlayer`: inputs ``estimated_state`` (6: p, v), ``estimated_spin``
+(3: omega, rad/s; taken as zero when not connected) and ``estimator_status`` (2: valid, time of
+the estimate); outputs ``desired_state`` (14: q, q_dot) and
 ``desired_acceleration`` (7) for the InverseDynamicsController, ``stage`` (1: index into
 :data:`tt_drake.stages.STAGES`), ``stroke`` (the :class:`Stroke` planned, for datasets) and
 ``predicted_hit`` (4: p_hit and a valid flag, for drawing).
@@ -44,6 +47,7 @@ from pydrake.common.value import AbstractValue
 from tt_drake import wam_params as wp
 from tt_drake.ball_model import BallModel, BallModelParams, CompliantBounceBallModel
 from tt_drake.constants import BALL, PLANES, TARGET
+from tt_drake.hitting_time import HittingBand, choose_hitting_point
 from tt_drake.racket_law import FLIGHT_TIMES, aim_candidates, racket_for_return
 from tt_drake.stages import (
     AWAITING,
@@ -86,10 +90,13 @@ class PlannerConfig:
     target_y: float = TARGET.y
     replan_position: float = 0.003  # m: a prediction this close to the last one changes nothing
     replan_time: float = 0.002  # s
+    replan_spin: float = 10.0  # rad/s at impact: R * 10 rad/s = 0.2 m/s at the contact point
     max_branch_change: float = 0.5  # rad: a re-plan moving theta_hit further is another IK branch
     research_distance: float = 0.05  # m: a hitting point this far from the last re-aims fully
     torque_fraction: float = 0.9  # of the effort limits a plan may ask for
     times: StageTimes = StageTimes()
+    # Where a ball off the plane may be hit (tt_drake.hitting_time); None: the plane only.
+    band: HittingBand | None = HittingBand()
 
 
 #: How much larger than the table the planner's model takes it (m): the launcher serves only onto
@@ -131,18 +138,22 @@ class StrokePlanner:
         return StagePlan([(AWAITING, Quintic.fit(t, 1.0, self.q_await, zero, zero,
                                                   self.q_await, zero, zero))])
 
-    def predict(self, state6, t_state: float, bounce_spin=None):
+    def predict(self, state6, t_state: float, spin=None):
         """Stimulus (p_hit, v_hit, t_hit absolute), the ball's spin there and whether the
-        prediction went through the bounce; or None.
+        prediction went through a bounce; or None.
 
-        The estimator does not see spin: an estimate taken after the bounce starts the model with
-        ``bounce_spin``, the spin an earlier prediction through the bounce gave."""
+        The ball model starts from the estimate (p, v) and the estimated ``spin`` (omega, rad/s;
+        zero if None) and carries both through the bounces ahead (the bounce changes spin and
+        velocity together), so the spin at impact is the model's from the estimator's."""
         state6 = np.asarray(state6, dtype=float)
         if state6[4] >= 0.0 or state6[1] <= PLANES.hitting_y:
             return None  # not coming toward the robot, or already past the plane
-        hit = self.model.predict_plane(np.r_[state6, np.zeros(3)], PLANES.hitting_y)
-        if hit is not None and not hit.bounces and bounce_spin is not None:
-            hit = self.model.predict_plane(np.r_[state6, bounce_spin], PLANES.hitting_y)
+        w = np.zeros(3) if spin is None else np.asarray(spin, dtype=float)
+        if self.config.band is None:
+            hit = self.model.predict_plane(np.r_[state6, w], PLANES.hitting_y)
+        else:  # the plane when it serves, else a point along the path (tt_drake.hitting_time)
+            hit = choose_hitting_point(self.model, np.r_[state6, w], PLANES.hitting_y,
+                                       self.config.band)
         if hit is None:
             return None
         return hit.position, hit.velocity, t_state + hit.t, hit.spin, bool(hit.bounces)
@@ -183,12 +194,16 @@ class StrokePlanner:
                       racket.normal, racket.velocity, np.asarray(ik.q), np.asarray(qd_hit),
                       ik.position_error, ik.angle_error, aim.flight_time, replans)
 
-    def needs_replan(self, previous: Stroke | None, p_hit, t_hit) -> bool:
+    def needs_replan(self, previous: Stroke | None, p_hit, t_hit, spin=None) -> bool:
+        """Whether a prediction moved from the one ``previous`` was planned on by more than
+        ``replan_position``, ``replan_time`` or (when given) ``replan_spin`` at impact."""
         if previous is None:
             return True
-        return (float(np.linalg.norm(np.asarray(p_hit) - previous.p_hit))
-                > self.config.replan_position
-                or abs(t_hit - previous.t_hit) > self.config.replan_time)
+        cfg = self.config
+        return (float(np.linalg.norm(np.asarray(p_hit) - previous.p_hit)) > cfg.replan_position
+                or abs(t_hit - previous.t_hit) > cfg.replan_time
+                or (spin is not None and float(np.linalg.norm(np.asarray(spin) - previous.spin))
+                    > cfg.replan_spin))
 
     def feasible(self, plan: StagePlan, now: float = -np.inf) -> bool:
         """Within the joint position, velocity and acceleration limits everywhere (sampled at
@@ -232,12 +247,12 @@ class StrokePlanner:
 class _PlayerState(Immutable):
     """``seen``: the time of the estimate last acted on (the player waits for a newer one)."""
 
-    __slots__ = ("plan", "stroke", "committed", "bounce_spin", "seen")
+    __slots__ = ("plan", "stroke", "committed", "seen")
 
     def __init__(self, plan: StagePlan, stroke: Stroke | None = None, committed: bool = False,
-                 bounce_spin: np.ndarray | None = None, seen: float = -math.inf):
+                 seen: float = -math.inf):
         self.plan, self.stroke, self.committed = plan, stroke, committed
-        self.bounce_spin, self.seen = bounce_spin, seen
+        self.seen = seen
 
 
 class AnalyticalPlayer(StagePlanPlayer):
@@ -246,6 +261,7 @@ class AnalyticalPlayer(StagePlanPlayer):
         super().__init__(setpoint_lead)
         self.planner = planner or StrokePlanner()
         self._estimate = self.DeclareVectorInputPort("estimated_state", 6)
+        self._spin = self.DeclareVectorInputPort("estimated_spin", 3)
         self._status = self.DeclareVectorInputPort("estimator_status", 2)
         self._state_index = self.DeclareAbstractState(
             AbstractValue.Make(_PlayerState(self.planner.awaiting_plan())))
@@ -264,28 +280,26 @@ class AnalyticalPlayer(StagePlanPlayer):
         plan = old.plan
         hit_segment = next((seg for stage, seg in plan.segments if stage == HITTING), None)
         if hit_segment is not None and now >= hit_segment.t0:
-            new = _PlayerState(plan, old.stroke, committed=True, bounce_spin=old.bounce_spin)
+            new = _PlayerState(plan, old.stroke, committed=True)
             state.get_mutable_abstract_state(self._state_index).set_value(new)
             return
         status = self._status.Eval(context)
         seen = float(status[1])
         if status[0] < 0.5 or not seen > old.seen:
             return
-        old = _PlayerState(old.plan, old.stroke, old.committed, old.bounce_spin, seen)
+        old = _PlayerState(old.plan, old.stroke, old.committed, seen)
         state.get_mutable_abstract_state(self._state_index).set_value(old)
-        prediction = self.planner.predict(self._estimate.Eval(context), seen, old.bounce_spin)
+        spin = self._spin.Eval(context) if self._spin.HasValue(context) else None
+        prediction = self.planner.predict(self._estimate.Eval(context), seen, spin)
         if prediction is None:
             return
-        p_hit, v_hit, t_hit, spin, through_bounce = prediction
-        bounce_spin = spin if through_bounce else old.bounce_spin
-        if bounce_spin is not old.bounce_spin:
-            old = _PlayerState(old.plan, old.stroke, old.committed, bounce_spin, seen)
-            state.get_mutable_abstract_state(self._state_index).set_value(old)
+        p_hit, v_hit, t_hit, spin, _ = prediction
         if t_hit - now < 0.05:
             return
-        if hit_segment is not None and not self.planner.needs_replan(old.stroke, p_hit, t_hit):
+        moved = self.planner.needs_replan(old.stroke, p_hit, t_hit, spin)
+        if hit_segment is not None and not moved:
             return  # a stroke is planned and the prediction has not moved
-        if hit_segment is None and not self.planner.needs_replan(old.stroke, p_hit, t_hit):
+        if hit_segment is None and not moved:
             stroke = old.stroke  # waiting: same stroke, but decide again whether to start
         else:
             stroke = self.planner.stroke(p_hit, v_hit, t_hit, spin, old.stroke)
@@ -293,5 +307,4 @@ class AnalyticalPlayer(StagePlanPlayer):
             return
         new_plan = self.planner.plan(now, plan, stroke)
         state.get_mutable_abstract_state(self._state_index).set_value(
-            _PlayerState(plan if new_plan is None else new_plan, stroke, False, bounce_spin,
-                         seen))
+            _PlayerState(plan if new_plan is None else new_plan, stroke, False, seen))

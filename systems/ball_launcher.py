@@ -1,8 +1,9 @@
 """BallLauncher LeafSystem: serves one ball per episode, reproducible from the episode seed.
 
 The serve is a pure function of the seed (a numeric parameter of the system), drawn by
-:class:`tt_drake.serves.ServeSampler` from the configured distribution (``default``, ``real`` or
-``fixed``; see that module). Outputs:
+:class:`tt_drake.serves.ServeSampler` from the configured distribution (``default``, ``spin``,
+``real``, ``real-train``, ``real-test``, ``rally``, ``rally-train``, ``rally-test`` or ``fixed``;
+see that module and docs/serves.md). Outputs:
 
 - ``launch_state``: the ball's launch state (p, v, omega), 9 floats; the episode runner puts the
   plant's ball there when the episode starts;
@@ -25,16 +26,24 @@ from tt_drake.serves import Serve, ServeSampler
 @dataclass
 class LauncherConfig:
     distribution: str = "default"
-    spin_max: float = 0.0  # rad/s per component; 0 serves without spin
-    real_serves: str = ""  # path to serves.json; empty: the copy shipped in tt_drake/data
+    # rad/s per spin component; 0: the distribution's default (``default``: no spin, ``spin``:
+    # 100 rad/s); the pools and ``fixed`` ignore it.
+    spin_max: float = 0.0
+    real_serves: str = ""  # path to serves.json; empty: $TT_DRAKE_SERVES or the shipped copy
+    rallies: str = ""  # path to rallies.json; empty: $TT_DRAKE_RALLIES or the shipped copy
+    # Base seed of the run being served (set by ``tt-drake serve``), -1 for none: a pool
+    # distribution then serves its pool in an order keyed by it, without repeats
+    # (tt_drake.serves.ServeSampler).
+    run_seed: int = -1
 
 
 class BallLauncher(LeafSystem):
     def __init__(self, config: LauncherConfig | None = None):
         super().__init__()
         self.config = config or LauncherConfig()
-        self.sampler = ServeSampler(self.config.distribution, self.config.spin_max,
-                                    self.config.real_serves or None)
+        c = self.config
+        self.sampler = ServeSampler(c.distribution, c.spin_max, c.real_serves or None,
+                                    rally_path=c.rallies or None, run_seed=c.run_seed)
         self._seed_index = self.DeclareNumericParameter(BasicVector([0.0]))
         depends_on_seed = {self.numeric_parameter_ticket(NumericParameterIndex(self._seed_index))}
         self._serve_port = self.DeclareAbstractOutputPort(

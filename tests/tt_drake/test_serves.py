@@ -6,7 +6,17 @@ import numpy as np
 import pytest
 
 from tt_drake.constants import HITTING_REGION, PLANES
-from tt_drake.serves import ServeError, ServeSampler, load_real_states
+from tt_drake.seeds import episode_seed
+from tt_drake.serves import (
+    LAUNCHER_Y,
+    SPIN_DEFAULT,
+    TEST_PERCENT,
+    ServeError,
+    ServeSampler,
+    load_real_states,
+    reaches_robot_half,
+    split_of,
+)
 
 
 def test_same_seed_gives_the_same_serve_and_different_seeds_differ():
@@ -68,3 +78,122 @@ def test_unknown_distribution_and_bad_files_fail_clearly(tmp_path):
     (tmp_path / "ok.json").write_text(json.dumps([]))
     with pytest.raises(ServeError):
         ServeSampler("real", real_path=tmp_path / "ok.json").sample(0)
+
+
+# -- distributions with spin, the real-ball pools and their splits ---------------------------------
+
+def test_episode_seeds_are_the_runners():
+    from tt_drake.diagrams.episodes import episode_seed as runner_seed
+    from tt_drake.seeds import episode_seed
+
+    assert runner_seed is episode_seed
+    assert episode_seed(3, 4) == int(np.random.SeedSequence([3, 4]).generate_state(1)[0])
+
+
+def test_spin_distribution_is_the_default_launcher_with_spin_up_to_spin_max():
+    spin = ServeSampler("spin")
+    assert spin.spin_max == SPIN_DEFAULT == 100.0  # spin_max 0: the distribution's default
+    serves = [spin.sample(seed) for seed in range(40)]
+    w = np.array([s.launch_state[6:9] for s in serves])
+    assert np.all(np.abs(w) <= 100.0) and np.abs(w).max() > 60.0
+    # Spin is drawn per axis, every sign: each component takes both signs over 40 serves.
+    assert np.all((w > 0).any(axis=0)) and np.all((w < 0).any(axis=0))
+    # The launcher's position and validity are the default's: one bounce on the robot's half,
+    # crossing the hitting region.
+    for s in serves:
+        assert s.launch_state[1] == pytest.approx(LAUNCHER_Y)
+        assert len(s.crossing.bounces) == 1 and HITTING_REGION.contains(
+            s.crossing.position[0], s.crossing.position[2])
+    narrow = ServeSampler("spin", spin_max=20.0).sample(3).launch_state[6:9]
+    assert np.all(np.abs(narrow) <= 20.0) and np.any(narrow != 0.0)
+
+
+def test_negative_or_nan_spin_max_is_refused():
+    for bad in (-1.0, float("nan")):
+        with pytest.raises(ServeError, match="spin_max must be >= 0"):
+            ServeSampler("spin", spin_max=bad)
+
+
+def test_split_is_a_fixed_function_of_the_id_with_about_30_percent_test():
+    ids = np.arange(20000)
+    test = np.array([split_of(i) == "test" for i in ids])
+    assert abs(test.mean() - TEST_PERCENT / 100) < 0.015  # binomial sd 0.0032
+    # Fixed: the definition in the docstring, recomputed here.
+    import hashlib
+
+    for i in (0, 1, 2704, 15791):
+        digest = int.from_bytes(hashlib.sha256(str(i).encode()).digest(), "big")
+        assert split_of(i) == ("test" if digest % 100 < 30 else "train")
+
+
+def _write_balls(path, states, ids=True):
+    keys = ("pos_x", "pos_y", "pos_z", "vel_x", "vel_y", "vel_z", "w_vel_x", "w_vel_y", "w_vel_z")
+    records = []
+    for k, s in enumerate(states):
+        r = dict(zip(keys, map(float, s), strict=True))
+        r["pos_z"] -= 0.76  # the file's frame: origin at the table surface
+        if ids:
+            r["id"] = 1000 + k
+        records.append(r)
+    path.write_text(json.dumps(records))
+    return path
+
+
+def _real_like(n, seed=0):
+    """n real serves (world frame) from the shipped file, a seeded choice."""
+    states = load_real_states()
+    return states[np.random.default_rng(seed).choice(len(states), n, replace=False)]
+
+
+def test_pool_keeps_every_ball_reaching_the_robot_half_and_splits_by_id(tmp_path):
+    states = _real_like(40)
+    states[0, 4] = -15.0  # far too fast: lands beyond the robot's end
+    states[1, 4] = 3.0  # moving away from the robot
+    path = _write_balls(tmp_path / "balls.json", states)
+    pool = ServeSampler("real", real_path=path).pool()
+    ids = [b.id for b in pool]
+    assert 1000 not in ids and 1001 not in ids and len(pool) >= 25
+    model = ServeSampler("real").model
+    for b in pool:
+        bounce = next(x for x in b.crossing.bounces if x.position[1] < 0.0)
+        assert abs(bounce.position[1]) <= 1.37 - 0.02 and abs(bounce.position[0]) <= 0.7425
+        assert reaches_robot_half(model, b.state) is not None
+    test = ServeSampler("real-test", real_path=path).pool()
+    train = ServeSampler("real-train", real_path=path).pool()
+    assert sorted([b.id for b in test] + [b.id for b in train]) == sorted(ids)
+    assert all(split_of(b.id) == "test" for b in test)
+    assert all(split_of(b.id) == "train" for b in train)
+
+
+def test_shipped_real_pool_includes_serves_crossing_below_the_hitting_region():
+    pool = ServeSampler("real-test").pool()
+    z = np.array([b.crossing.position[2] for b in pool])
+    assert np.sum(z < HITTING_REGION.z_min) > 0.3 * len(pool)
+    assert all(split_of(b.id) == "test" for b in pool)
+
+
+def test_a_run_deals_the_pool_without_repeats_and_replays(tmp_path):
+    path = _write_balls(tmp_path / "balls.json", _real_like(25, seed=1))
+    sampler = ServeSampler("real", real_path=path, run_seed=11)
+    n = len(sampler.pool())
+    dealt = [sampler.sample(episode_seed(11, i)).source_id for i in range(n)]
+    assert sorted(dealt) == sorted(b.id for b in sampler.pool())  # a permutation of the pool
+    again = ServeSampler("real", real_path=path, run_seed=11)
+    assert [again.sample(episode_seed(11, i)).source_id for i in (4, 0, 7)] == [
+        dealt[4], dealt[0], dealt[7]]  # pure: any episode replays alone, in any order
+    other = [ServeSampler("real", real_path=path, run_seed=12).sample(episode_seed(12, i))
+             .source_id for i in range(n)]
+    assert other != dealt and sorted(other) == sorted(dealt)
+    # Outside a run (or past the pool's size) a seed draws from the pool, reproducibly.
+    free = ServeSampler("real", real_path=path)
+    assert free.sample(5).source_id == ServeSampler("real", real_path=path).sample(5).source_id
+
+
+def test_a_split_of_a_file_without_ids_is_refused(tmp_path):
+    path = _write_balls(tmp_path / "noids.json", _real_like(10), ids=False)
+    assert len(ServeSampler("real", real_path=path).pool()) > 0  # unsplit: numbered 0..N-1
+    for name in ("real-test", "real-train"):
+        with pytest.raises(ServeError, match="has no record ids, so it has no"):
+            ServeSampler(name, real_path=path).check()
+    with pytest.raises(ServeError, match="has no record ids"):
+        ServeSampler("rally-test", rally_path=path).check()

@@ -1,0 +1,72 @@
+"""The choice of hitting point along the predicted path (tt_drake.hitting_time)."""
+
+import numpy as np
+import pytest
+
+from tt_drake.ball_model import BallModel
+from tt_drake.constants import PLANES
+from tt_drake.hitting_time import HittingBand, bounced_on_robot_half, choose_hitting_point
+from tt_drake.serves import ServeSampler
+
+MODEL = BallModel(dt=2e-3)
+BAND = HittingBand()
+
+
+def _real(kind: str):
+    """The first real-test serve whose plane crossing is of ``kind``: ``low`` (one bounce on the
+    robot's half, crossing below plane_z_min, still above z_min at y_max) or ``short`` (two
+    bounces there before it)."""
+    for ball in ServeSampler("real-test").pool():
+        c = MODEL.predict_plane(ball.state, PLANES.hitting_y)
+        if c is None:
+            continue
+        robot = [b for b in c.bounces if b.position[1] < 0.0]
+        if kind == "low" and len(robot) == 1 and c.position[2] < BAND.plane_z_min - 0.05:
+            at_reach = MODEL.predict_plane(ball.state, BAND.y_max)
+            if at_reach.position[2] > BAND.z_min + 0.02:
+                return ball.state, c
+        if kind == "short" and len(robot) == 2:
+            return ball.state, c
+    raise AssertionError(f"no {kind} serve in the pool")
+
+
+def test_default_serves_keep_the_plane_crossing():
+    sampler = ServeSampler("default")
+    for seed in range(10):
+        state = sampler.sample(seed).launch_state
+        chosen = choose_hitting_point(MODEL, state)
+        plane = MODEL.predict_plane(state, PLANES.hitting_y)
+        assert chosen.t == plane.t
+        np.testing.assert_array_equal(chosen.position, plane.position)
+
+
+def test_a_ball_crossing_too_low_is_hit_where_it_falls_through_the_band():
+    state, plane = _real("low")
+    hit = choose_hitting_point(MODEL, state)
+    assert hit is not None and hit.t < plane.t
+    # In the band, after the robot-side bounce, where the ball falls through z_min.
+    assert hit.position[2] == pytest.approx(BAND.z_min, abs=1e-6)
+    assert hit.velocity[2] < 0.0 and hit.position[1] <= BAND.y_max
+    robot = [b for b in hit.bounces if b.position[1] < 0.0]
+    assert len(robot) == 1 and robot[0].t < hit.t
+    # It is the last such point: 2 ms later the ball is below the band.
+    assert MODEL.predict_time(state, hit.t + 2e-3).position[2] < BAND.z_min
+    # The same point from a later estimate of the same flight (after the bounce), to 1e-6.
+    later = MODEL.predict_time(state, robot[0].t + 0.05)
+    again = choose_hitting_point(MODEL, later.state)
+    assert again.t + robot[0].t + 0.05 == pytest.approx(hit.t, abs=1e-6)
+    np.testing.assert_allclose(again.position, hit.position, atol=1e-6)
+    np.testing.assert_allclose(again.spin, hit.spin, atol=1e-9)
+
+
+def test_a_short_ball_bouncing_twice_before_reach_has_no_hitting_point():
+    state, _ = _real("short")
+    assert choose_hitting_point(MODEL, state) is None
+
+
+def test_bounced_on_robot_half_by_following_the_flight_back():
+    state, plane = _real("low")
+    bounce = next(b for b in plane.bounces if b.position[1] < 0.0)
+    assert not bounced_on_robot_half(MODEL, state)  # the opponent's half
+    assert not bounced_on_robot_half(MODEL, MODEL.predict_time(state, bounce.t - 0.02).state)
+    assert bounced_on_robot_half(MODEL, MODEL.predict_time(state, bounce.t + 0.02).state)
