@@ -78,8 +78,12 @@ def test_estimator_matches_the_numpy_filter():
         ekf.step(t, z)
     status = est.GetOutputPort("status").Eval(ctx)
     assert status == pytest.approx([1.0, 9 * PERIOD])
-    assert est.GetOutputPort("state").Eval(ctx) == pytest.approx(ekf.x, abs=1e-12)
-    assert est.GetOutputPort("covariance").Eval(ctx) == pytest.approx(ekf.P.ravel(), abs=1e-15)
+    assert est.GetOutputPort("state").Eval(ctx) == pytest.approx(ekf.x[:6], abs=1e-12)
+    assert est.GetOutputPort("spin").Eval(ctx) == pytest.approx(ekf.x[6:9], abs=1e-12)
+    assert est.GetOutputPort("covariance").Eval(ctx) == pytest.approx(
+        ekf.P[:6, :6].ravel(), abs=1e-15)
+    assert est.GetOutputPort("spin_covariance").Eval(ctx) == pytest.approx(
+        ekf.P[6:9, 6:9].ravel(), abs=1e-12)
 
 
 def test_predictor_collects_four_observations_after_the_plane():
