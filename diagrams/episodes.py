@@ -75,6 +75,7 @@ def _analytical_player(builder: DiagramBuilder, world: World, controller,
                                     AnalyticalPlayer(StrokePlanner(config=config),
                                                      setpoint_lead=SETPOINT_LEAD))
     builder.Connect(estimator.GetOutputPort("state"), player.GetInputPort("estimated_state"))
+    builder.Connect(estimator.GetOutputPort("spin"), player.GetInputPort("estimated_spin"))
     builder.Connect(estimator.GetOutputPort("status"), player.GetInputPort("estimator_status"))
     add_servo_hold(builder, player.GetOutputPort("desired_state"),
                    player.GetOutputPort("desired_acceleration"), controller)

@@ -6,8 +6,8 @@ comes toward the robot and the hitting stage has not begun, the
 
 1. predicts the ball's state where it crosses the virtual hitting plane, with the physical model
    (:class:`tt_drake.ball_model.CompliantBounceBallModel`) from the estimator's state: the
-   stimulus (p_hit, v_hit, t_hit), and the spin the table bounce gives the ball (the estimator
-   does not observe spin: once the ball has bounced, the spin predicted before is kept);
+   stimulus (p_hit, v_hit, t_hit), and the ball's spin there: the model starts from the
+   estimator's spin and carries it through any bounce still ahead (docs/spin.md);
 2. chooses the outgoing velocity that lands the ball on the target, and the racket normal and
    velocity that produce it (:mod:`tt_drake.racket_law`);
 3. solves the arm: the hitting configuration theta_hit that puts the racket centre at
@@ -18,7 +18,10 @@ comes toward the robot and the hitting stage has not begun, the
    (:class:`tt_drake.systems.hitting_ik.HittingIK`);
 4. re-plans the stages from the current desired state (:func:`tt_drake.stages.plan_stroke`).
 
-It stops re-planning once the hitting stage has begun (paper section III-A). A re-plan is
+It stops re-planning once the hitting stage has begun (paper section III-A), except for
+corrections: a prediction that moves more than the racket forgives (the spin seen at the
+robot-side bounce, usually after the hitting stage's start) re-plans the rest of the hitting
+stage from the current desired state, until 80 ms before the hit. A re-plan is
 dropped, keeping the previous one, when the arm solution jumps to another configuration
 (> ``max_branch_change`` on a joint) while the hitting point moved less than
 ``research_distance``, or when the new plan leaves the joint position, velocity or acceleration
@@ -26,8 +29,9 @@ limits or asks for more than 90 % of an actuator's effort limit (inverse dynamic
 an acceleration limit alone let a plan ask the shoulder for twice its 75 N m). The player only sees
 what the camera sees: its inputs are the estimator's outputs, never the true ball state.
 
-Ports of :class:`AnalyticalPlayer`: inputs ``estimated_state`` (6: p, v) and ``estimator_status``
-(2: valid, time of the estimate); outputs ``desired_state`` (14: q, q_dot) and
+Ports of :class:`AnalyticalPlayer`: inputs ``estimated_state`` (6: p, v), ``estimated_spin``
+(3: omega, rad/s; taken as zero when not connected) and ``estimator_status`` (2: valid, time of
+the estimate); outputs ``desired_state`` (14: q, q_dot) and
 ``desired_acceleration`` (7) for the InverseDynamicsController, ``stage`` (1: index into
 :data:`tt_drake.stages.STAGES`), ``stroke`` (the :class:`Stroke` planned, for datasets) and
 ``predicted_hit`` (4: p_hit and a valid flag, for drawing).
@@ -86,6 +90,14 @@ class PlannerConfig:
     target_y: float = TARGET.y
     replan_position: float = 0.003  # m: a prediction this close to the last one changes nothing
     replan_time: float = 0.002  # s
+    replan_spin: float = 10.0  # rad/s at impact: R * 10 rad/s = 0.2 m/s at the contact point
+    # After the hitting stage has begun: a prediction that moved more than the racket forgives
+    # (its blade is 76 mm in radius; a 20 rad/s spin error turns the return by ~0.4 m/s at the
+    # contact) re-plans the rest of the hitting stage, until ``correct_lead`` before the hit.
+    correct_position: float = 0.010  # m
+    correct_time: float = 0.005  # s
+    correct_spin: float = 20.0  # rad/s
+    correct_lead: float = 0.08  # s
     max_branch_change: float = 0.5  # rad: a re-plan moving theta_hit further is another IK branch
     research_distance: float = 0.05  # m: a hitting point this far from the last re-aims fully
     torque_fraction: float = 0.9  # of the effort limits a plan may ask for
@@ -131,18 +143,18 @@ class StrokePlanner:
         return StagePlan([(AWAITING, Quintic.fit(t, 1.0, self.q_await, zero, zero,
                                                   self.q_await, zero, zero))])
 
-    def predict(self, state6, t_state: float, bounce_spin=None):
+    def predict(self, state6, t_state: float, spin=None):
         """Stimulus (p_hit, v_hit, t_hit absolute), the ball's spin there and whether the
-        prediction went through the bounce; or None.
+        prediction went through a bounce; or None.
 
-        The estimator does not see spin: an estimate taken after the bounce starts the model with
-        ``bounce_spin``, the spin an earlier prediction through the bounce gave."""
+        The ball model starts from the estimate (p, v) and the estimated ``spin`` (omega, rad/s;
+        zero if None) and carries both through the bounces ahead (the bounce changes spin and
+        velocity together), so the spin at impact is the model's from the estimator's."""
         state6 = np.asarray(state6, dtype=float)
         if state6[4] >= 0.0 or state6[1] <= PLANES.hitting_y:
             return None  # not coming toward the robot, or already past the plane
-        hit = self.model.predict_plane(np.r_[state6, np.zeros(3)], PLANES.hitting_y)
-        if hit is not None and not hit.bounces and bounce_spin is not None:
-            hit = self.model.predict_plane(np.r_[state6, bounce_spin], PLANES.hitting_y)
+        w = np.zeros(3) if spin is None else np.asarray(spin, dtype=float)
+        hit = self.model.predict_plane(np.r_[state6, w], PLANES.hitting_y)
         if hit is None:
             return None
         return hit.position, hit.velocity, t_state + hit.t, hit.spin, bool(hit.bounces)
@@ -183,12 +195,40 @@ class StrokePlanner:
                       racket.normal, racket.velocity, np.asarray(ik.q), np.asarray(qd_hit),
                       ik.position_error, ik.angle_error, aim.flight_time, replans)
 
-    def needs_replan(self, previous: Stroke | None, p_hit, t_hit) -> bool:
+    def needs_replan(self, previous: Stroke | None, p_hit, t_hit, spin=None) -> bool:
+        """Whether a prediction moved from the one ``previous`` was planned on by more than
+        ``replan_position``, ``replan_time`` or (when given) ``replan_spin`` at impact."""
         if previous is None:
             return True
-        return (float(np.linalg.norm(np.asarray(p_hit) - previous.p_hit))
-                > self.config.replan_position
-                or abs(t_hit - previous.t_hit) > self.config.replan_time)
+        cfg = self.config
+        return (float(np.linalg.norm(np.asarray(p_hit) - previous.p_hit)) > cfg.replan_position
+                or abs(t_hit - previous.t_hit) > cfg.replan_time
+                or (spin is not None and float(np.linalg.norm(np.asarray(spin) - previous.spin))
+                    > cfg.replan_spin))
+
+    def needs_correction(self, previous: Stroke, p_hit, t_hit, spin) -> bool:
+        """Whether a prediction during the hitting stage moved from the committed one by more
+        than the racket forgives (``correct_*`` of :class:`PlannerConfig`)."""
+        cfg = self.config
+        return (float(np.linalg.norm(np.asarray(p_hit) - previous.p_hit)) > cfg.correct_position
+                or abs(t_hit - previous.t_hit) > cfg.correct_time
+                or float(np.linalg.norm(np.asarray(spin) - previous.spin)) > cfg.correct_spin)
+
+    def correct(self, now: float, current: StagePlan, stroke: Stroke) -> StagePlan | None:
+        """The current plan up to ``now`` and a new hitting segment from the current desired
+        state to the corrected stroke's (theta_hit, theta_dot_hit) at its t_hit, then the
+        follow-through and the return; None if that is not feasible for the arm (keep the
+        committed plan)."""
+        state = current.evaluate(now)
+        try:
+            plan = plan_stroke(now, state, stroke.t_hit, stroke.q_hit, stroke.qd_hit,
+                               self.q_await, self.limits, self.config.times, preparing=True,
+                               allow_wait=False)
+        except ValueError:
+            return None
+        if plan is None or not self.feasible(plan, now):
+            return None
+        return StagePlan(current.truncated(now).segments + plan.segments)
 
     def feasible(self, plan: StagePlan, now: float = -np.inf) -> bool:
         """Within the joint position, velocity and acceleration limits everywhere (sampled at
@@ -232,20 +272,27 @@ class StrokePlanner:
 class _PlayerState(Immutable):
     """``seen``: the time of the estimate last acted on (the player waits for a newer one)."""
 
-    __slots__ = ("plan", "stroke", "committed", "bounce_spin", "seen")
+    __slots__ = ("plan", "stroke", "committed", "seen")
 
     def __init__(self, plan: StagePlan, stroke: Stroke | None = None, committed: bool = False,
-                 bounce_spin: np.ndarray | None = None, seen: float = -math.inf):
+                 seen: float = -math.inf):
         self.plan, self.stroke, self.committed = plan, stroke, committed
-        self.bounce_spin, self.seen = bounce_spin, seen
+        self.seen = seen
 
 
 class AnalyticalPlayer(StagePlanPlayer):
+    """``corrections``: after the hitting stage has begun, re-plan its rest when the prediction
+    moves more than the racket forgives (:meth:`StrokePlanner.needs_correction`): the spin a
+    launcher serve carries is seen only at the robot-side bounce, which for most serves comes
+    after the hitting stage's start (0.4 s before the hit)."""
+
     def __init__(self, planner: StrokePlanner | None = None, rate: float = wp.PLANNING_RATE,
-                 setpoint_lead: float = 0.0):
+                 setpoint_lead: float = 0.0, corrections: bool = True):
         super().__init__(setpoint_lead)
         self.planner = planner or StrokePlanner()
+        self.corrections = corrections
         self._estimate = self.DeclareVectorInputPort("estimated_state", 6)
+        self._spin = self.DeclareVectorInputPort("estimated_spin", 3)
         self._status = self.DeclareVectorInputPort("estimator_status", 2)
         self._state_index = self.DeclareAbstractState(
             AbstractValue.Make(_PlayerState(self.planner.awaiting_plan())))
@@ -260,32 +307,32 @@ class AnalyticalPlayer(StagePlanPlayer):
         old = self.player_state(context)
         now = context.get_time()
         if old.committed:
+            if self.corrections:
+                self._correct(context, state, old, now)
             return
         plan = old.plan
         hit_segment = next((seg for stage, seg in plan.segments if stage == HITTING), None)
         if hit_segment is not None and now >= hit_segment.t0:
-            new = _PlayerState(plan, old.stroke, committed=True, bounce_spin=old.bounce_spin)
+            new = _PlayerState(plan, old.stroke, committed=True)
             state.get_mutable_abstract_state(self._state_index).set_value(new)
             return
         status = self._status.Eval(context)
         seen = float(status[1])
         if status[0] < 0.5 or not seen > old.seen:
             return
-        old = _PlayerState(old.plan, old.stroke, old.committed, old.bounce_spin, seen)
+        old = _PlayerState(old.plan, old.stroke, old.committed, seen)
         state.get_mutable_abstract_state(self._state_index).set_value(old)
-        prediction = self.planner.predict(self._estimate.Eval(context), seen, old.bounce_spin)
+        spin = self._spin.Eval(context) if self._spin.HasValue(context) else None
+        prediction = self.planner.predict(self._estimate.Eval(context), seen, spin)
         if prediction is None:
             return
-        p_hit, v_hit, t_hit, spin, through_bounce = prediction
-        bounce_spin = spin if through_bounce else old.bounce_spin
-        if bounce_spin is not old.bounce_spin:
-            old = _PlayerState(old.plan, old.stroke, old.committed, bounce_spin, seen)
-            state.get_mutable_abstract_state(self._state_index).set_value(old)
+        p_hit, v_hit, t_hit, spin, _ = prediction
         if t_hit - now < 0.05:
             return
-        if hit_segment is not None and not self.planner.needs_replan(old.stroke, p_hit, t_hit):
+        moved = self.planner.needs_replan(old.stroke, p_hit, t_hit, spin)
+        if hit_segment is not None and not moved:
             return  # a stroke is planned and the prediction has not moved
-        if hit_segment is None and not self.planner.needs_replan(old.stroke, p_hit, t_hit):
+        if hit_segment is None and not moved:
             stroke = old.stroke  # waiting: same stroke, but decide again whether to start
         else:
             stroke = self.planner.stroke(p_hit, v_hit, t_hit, spin, old.stroke)
@@ -293,5 +340,30 @@ class AnalyticalPlayer(StagePlanPlayer):
             return
         new_plan = self.planner.plan(now, plan, stroke)
         state.get_mutable_abstract_state(self._state_index).set_value(
-            _PlayerState(plan if new_plan is None else new_plan, stroke, False, bounce_spin,
-                         seen))
+            _PlayerState(plan if new_plan is None else new_plan, stroke, False, seen))
+
+    def _correct(self, context, state, old: _PlayerState, now: float) -> None:
+        """During the hitting stage: re-plan its rest on a prediction that moved more than the
+        racket forgives, until ``correct_lead`` before the hit (class docstring)."""
+        status = self._status.Eval(context)
+        seen = float(status[1])
+        if status[0] < 0.5 or not seen > old.seen or old.stroke is None:
+            return
+        old = _PlayerState(old.plan, old.stroke, True, seen)
+        state.get_mutable_abstract_state(self._state_index).set_value(old)
+        spin = self._spin.Eval(context) if self._spin.HasValue(context) else None
+        prediction = self.planner.predict(self._estimate.Eval(context), seen, spin)
+        if prediction is None:
+            return
+        p_hit, v_hit, t_hit, spin, _ = prediction
+        cfg = self.planner.config
+        if (t_hit - now < cfg.correct_lead or old.stroke.t_hit - now < cfg.correct_lead
+                or not self.planner.needs_correction(old.stroke, p_hit, t_hit, spin)):
+            return
+        stroke = self.planner.stroke(p_hit, v_hit, t_hit, spin, old.stroke)
+        if stroke is None:
+            return
+        plan = self.planner.correct(now, old.plan, stroke)
+        if plan is not None:
+            state.get_mutable_abstract_state(self._state_index).set_value(
+                _PlayerState(plan, stroke, True, seen))
