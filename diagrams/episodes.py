@@ -143,9 +143,13 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     # dt = 5 ms: the same crossing as 2 ms to 1e-8 m on a serve, at 2.5x fewer RK4 steps.
     early = (PhysicalPredictor(CompliantBounceBallModel(dt=5e-3))
              if primitives and scenario.learned.early_prediction else None)
-    predictor = builder.AddNamedSystem("hitting_point_predictor",
-                                       HittingPointPredictor(gpr=learned["gpr"], early=early))
+    # After the robot-side bounce the estimator knows the spin: the MoMP player's prediction
+    # follows the ball from there (docs/spin.md).
+    refresh = PhysicalPredictor(CompliantBounceBallModel(dt=5e-3)) if primitives else None
+    predictor = builder.AddNamedSystem("hitting_point_predictor", HittingPointPredictor(
+        gpr=learned["gpr"], early=early, refresh=refresh))
     builder.Connect(estimator.GetOutputPort("state"), predictor.GetInputPort("state"))
+    builder.Connect(estimator.GetOutputPort("spin"), predictor.GetInputPort("spin"))
     builder.Connect(estimator.GetOutputPort("status"), predictor.GetInputPort("status"))
     if scenario.learned.configuration == "crkr":
         configuration = HittingConfiguration("crkr", model=learned["crkr"])

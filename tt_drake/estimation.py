@@ -89,7 +89,7 @@ class EstimatorConfig:
     meas_sigma: float = 0.003  # camera noise per axis (m)
     accel_noise: float = 0.002  # q, white-acceleration noise density (m^2/s^3)
     spin_noise: float = 4.0  # q_w, spin random-walk density ((rad/s)^2/s)
-    spin_sigma0: float = 100.0  # prior standard deviation of each spin component (rad/s)
+    spin_sigma0: float = 50.0  # prior standard deviation of each spin component (rad/s)
     bounce_velocity_sigma: float = 0.05  # s_b, extra velocity uncertainty per bounce (m/s)
     bounce_spin_sigma: float = 5.0  # s_w, extra spin uncertainty per bounce (rad/s)
     hypothesis_velocity_sigma: float = 1.0  # sigma_h of the bounce hypothesis (m/s)
