@@ -66,14 +66,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from scipy.stats import chi2
 
-from tt_drake.ball_model import (
-    BallModel,
-    BallModelParams,
-    CompliantBounceBallModel,
-    _mat3_axpy,
-    _mat3_mul,
-    _mat3_rk4,
-)
+from tt_drake.ball_model import BallModel, BallModelParams, CompliantBounceBallModel
 
 UNINITIALISED = 0.0
 TRACKING = 1.0
@@ -98,7 +91,7 @@ class EstimatorConfig:
     init_frames: int = 3
     init_inflation: float = 2.0
     max_rejections: int = 4
-    model_dt: float = 4e-3  # RK4 step of the propagation model (s)
+    model_dt: float = 1.0 / 120.0  # RK4 step of the propagation model (s): two per 60 Hz frame
     fd_eps: float = 1e-6  # finite-difference step of the Jacobian across a bounce (m, m/s, rad/s)
 
     def __post_init__(self):
@@ -160,7 +153,30 @@ def starts_in_contact(model: BallModel, pos: tuple, vel: tuple) -> bool:
             and model.over_table(pos[0], pos[1]))
 
 
-_IDENTITY3 = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+def _jac_times(J: tuple, M: tuple, B: tuple | None = None) -> tuple[float, ...]:
+    """J M (+ [0 | B]) for a 3 x 3 J and a 3 x 6 M (row-major 9- and 18-tuples); B (3 x 3) is
+    added to the last three columns."""
+    j0, j1, j2, j3, j4, j5, j6, j7, j8 = J
+    (a0, a1, a2, a3, a4, a5, b0, b1, b2, b3, b4, b5, c0, c1, c2, c3, c4, c5) = M
+    out = (j0 * a0 + j1 * b0 + j2 * c0, j0 * a1 + j1 * b1 + j2 * c1, j0 * a2 + j1 * b2 + j2 * c2,
+           j0 * a3 + j1 * b3 + j2 * c3, j0 * a4 + j1 * b4 + j2 * c4, j0 * a5 + j1 * b5 + j2 * c5,
+           j3 * a0 + j4 * b0 + j5 * c0, j3 * a1 + j4 * b1 + j5 * c1, j3 * a2 + j4 * b2 + j5 * c2,
+           j3 * a3 + j4 * b3 + j5 * c3, j3 * a4 + j4 * b4 + j5 * c4, j3 * a5 + j4 * b5 + j5 * c5,
+           j6 * a0 + j7 * b0 + j8 * c0, j6 * a1 + j7 * b1 + j8 * c1, j6 * a2 + j7 * b2 + j8 * c2,
+           j6 * a3 + j7 * b3 + j8 * c3, j6 * a4 + j7 * b4 + j8 * c4, j6 * a5 + j7 * b5 + j8 * c5)
+    if B is None:
+        return out
+    o = list(out)
+    o[3] += B[0]
+    o[4] += B[1]
+    o[5] += B[2]
+    o[9] += B[3]
+    o[10] += B[4]
+    o[11] += B[5]
+    o[15] += B[6]
+    o[16] += B[7]
+    o[17] += B[8]
+    return tuple(o)
 
 
 def _spin_forcing(c: float, v: tuple) -> tuple[float, ...]:
@@ -171,41 +187,51 @@ def _spin_forcing(c: float, v: tuple) -> tuple[float, ...]:
             c * vy, -c * vx, 0.0)
 
 
-def _mat3_add(a: tuple, b: tuple) -> tuple[float, ...]:
-    return tuple(x + y for x, y in zip(a, b, strict=True))
-
-
 def flight_step_spin_variational(model: BallModel, pos: tuple, vel: tuple, w: tuple, h: float,
-                                 dpv: tuple, dvv: tuple, dpw: tuple, dvw: tuple):
+                                 dp: tuple, dv: tuple):
     """One RK4 flight step (``model.flight_step``, the same numbers) with the sensitivities of
-    (p, v) to the initial velocity (``dpv``, ``dvv``) and to the spin (``dpw``, ``dvw``), 3 x 3
-    row-major each. The velocity columns follow ``BallModel.flight_step_variational``; the spin
-    columns obey the variational equation with the Magnus forcing B(v) = -C_L [v]x:
+    (p, v) to the initial velocity and spin, ``dp`` and ``dv`` (3 x 6 each, row-major
+    18-tuples: columns v0, omega0). They obey the variational equation
 
-        dpw' = dvw,    dvw' = J(v) dvw + B(v)
+        dp' = dv,    dv' = J(v) dv + [0 | B(v)],    B(v) = -C_L [v]x
 
-    integrated by the same RK4 stages (D_i = J(v_i) Y_i + B(v_i), Y1 = dvw,
-    Y2 = dvw + h/2 D1, Y3 = dvw + h/2 D2, Y4 = dvw + h D3), which is the exact derivative of
-    the RK4 step. Returns (p, v, dpv, dvv, dpw, dvw)."""
-    new_p, new_v, new_dpv, new_dvv = model.flight_step_variational(pos, vel, w, h, dpv, dvv)
+    (J = d(v')/dv, :meth:`BallModel.acceleration_jacobian`; B the Magnus term's derivative by
+    the spin, constant in flight), integrated by the step's own RK4 stages: with the stage
+    velocities v_i, D_i = J(v_i) X_i + [0 | B(v_i)], X1 = dv, X2 = dv + h/2 D1,
+    X3 = dv + h/2 D2, X4 = dv + h D3,
+
+        dp+ = dp + h/6 (X1 + 2 X2 + 2 X3 + X4),    dv+ = dv + h/6 (D1 + 2 D2 + 2 D3 + D4),
+
+    the exact derivative of the RK4 step. Returns (p, v, dp, dv)."""
     c = model.params.magnus_cl
     hh = 0.5 * h
-    a1 = model.acceleration(vel, w)
+    acc, jac = model.acceleration, model.acceleration_jacobian
+    a1 = acc(vel, w)
     v2 = (vel[0] + hh * a1[0], vel[1] + hh * a1[1], vel[2] + hh * a1[2])
-    a2 = model.acceleration(v2, w)
+    a2 = acc(v2, w)
     v3 = (vel[0] + hh * a2[0], vel[1] + hh * a2[1], vel[2] + hh * a2[2])
-    a3 = model.acceleration(v3, w)
+    a3 = acc(v3, w)
     v4 = (vel[0] + h * a3[0], vel[1] + h * a3[1], vel[2] + h * a3[2])
-    d1 = _mat3_add(_mat3_mul(model.acceleration_jacobian(vel, w), dvw), _spin_forcing(c, vel))
-    y2 = _mat3_axpy(dvw, hh, d1)
-    d2 = _mat3_add(_mat3_mul(model.acceleration_jacobian(v2, w), y2), _spin_forcing(c, v2))
-    y3 = _mat3_axpy(dvw, hh, d2)
-    d3 = _mat3_add(_mat3_mul(model.acceleration_jacobian(v3, w), y3), _spin_forcing(c, v3))
-    y4 = _mat3_axpy(dvw, h, d3)
-    d4 = _mat3_add(_mat3_mul(model.acceleration_jacobian(v4, w), y4), _spin_forcing(c, v4))
+    a4 = acc(v4, w)
     h6 = h / 6.0
-    return (new_p, new_v, new_dpv, new_dvv, _mat3_rk4(dpw, h6, dvw, y2, y3, y4),
-            _mat3_rk4(dvw, h6, d1, d2, d3, d4))
+    new_p = (pos[0] + h6 * (vel[0] + 2 * v2[0] + 2 * v3[0] + v4[0]),
+             pos[1] + h6 * (vel[1] + 2 * v2[1] + 2 * v3[1] + v4[1]),
+             pos[2] + h6 * (vel[2] + 2 * v2[2] + 2 * v3[2] + v4[2]))
+    new_v = (vel[0] + h6 * (a1[0] + 2 * a2[0] + 2 * a3[0] + a4[0]),
+             vel[1] + h6 * (a1[1] + 2 * a2[1] + 2 * a3[1] + a4[1]),
+             vel[2] + h6 * (a1[2] + 2 * a2[2] + 2 * a3[2] + a4[2]))
+    d1 = _jac_times(jac(vel, w), dv, _spin_forcing(c, vel))
+    x2 = tuple(a + hh * b for a, b in zip(dv, d1, strict=True))
+    d2 = _jac_times(jac(v2, w), x2, _spin_forcing(c, v2))
+    x3 = tuple(a + hh * b for a, b in zip(dv, d2, strict=True))
+    d3 = _jac_times(jac(v3, w), x3, _spin_forcing(c, v3))
+    x4 = tuple(a + h * b for a, b in zip(dv, d3, strict=True))
+    d4 = _jac_times(jac(v4, w), x4, _spin_forcing(c, v4))
+    new_dp = tuple(p0 + h6 * (k1 + 2 * k2 + 2 * k3 + k4)
+                   for p0, k1, k2, k3, k4 in zip(dp, dv, x2, x3, x4, strict=True))
+    new_dv = tuple(q0 + h6 * (k1 + 2 * k2 + 2 * k3 + k4)
+                   for q0, k1, k2, k3, k4 in zip(dv, d1, d2, d3, d4, strict=True))
+    return new_p, new_v, new_dp, new_dv
 
 
 def propagate_flight_jacobian(model: BallModel, x, duration: float
@@ -220,21 +246,20 @@ def propagate_flight_jacobian(model: BallModel, x, duration: float
     pos, vel, w = _as_state9(x)
     if starts_in_contact(model, pos, vel):
         return None
-    zero = (0.0,) * 9
-    dpv, dvv, dpw, dvw = zero, _IDENTITY3, zero, zero
+    dp = (0.0,) * 18
+    dv = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+          0.0, 1.0, 0.0, 0.0, 0.0, 0.0,
+          0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
     t = 0.0
     while duration - t > 1e-12:
         h = min(model.dt, duration - t)
-        new_p, new_v, n_dpv, n_dvv, n_dpw, n_dvw = flight_step_spin_variational(
-            model, pos, vel, w, h, dpv, dvv, dpw, dvw)
+        new_p, new_v, new_dp, new_dv = flight_step_spin_variational(model, pos, vel, w, h, dp, dv)
         if model.table_impact(pos, vel, w, h, new_p, new_v) is not None:
             return None
-        pos, vel, dpv, dvv, dpw, dvw, t = new_p, new_v, n_dpv, n_dvv, n_dpw, n_dvw, t + h
+        pos, vel, dp, dv, t = new_p, new_v, new_dp, new_dv, t + h
     F = np.eye(N_STATE)
-    F[0:3, 3:6] = np.reshape(dpv, (3, 3))
-    F[3:6, 3:6] = np.reshape(dvv, (3, 3))
-    F[0:3, 6:9] = np.reshape(dpw, (3, 3))
-    F[3:6, 6:9] = np.reshape(dvw, (3, 3))
+    F[0:3, 3:9] = np.reshape(dp, (3, 6))
+    F[3:6, 3:9] = np.reshape(dv, (3, 6))
     return np.array(pos + vel + w), F
 
 
