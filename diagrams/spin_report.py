@@ -8,10 +8,12 @@ analytical player and camera perception, logging the estimator's spin; the commi
 start of the hitting stage in the player's final plan. Compared there:
 
 - the estimated spin against Drake's (the ball body's angular velocity, world frame);
-- the hitting point p_hit and time t_hit the committed stroke was planned on against the true
-  crossing of the virtual hitting plane, from the same launch state flown in the ball-only Drake
-  world (no racket in the way; Hermite interpolation of a 600 Hz log);
-- the spin at impact the player planned with against Drake's at the crossing.
+- the hitting point the player's planner predicts from the estimate at the commit
+  (``commit_p_hit_error_mm``), and the one its final stroke was planned on after any corrections
+  during the hitting stage (``p_hit_error_mm``, ``t_hit_error_ms``), against the true crossing
+  of the virtual hitting plane: the same launch state flown in the ball-only Drake world (no
+  racket in the way; Hermite interpolation of a 600 Hz log);
+- the spin at impact the final stroke was planned with against Drake's at the crossing.
 
 Prints a one-line summary per quantity (median, 90th percentile) and writes per-serve rows.
 """
@@ -37,7 +39,8 @@ def _logged_analytical_player(builder, world, controller, scenario) -> list:
 
     seeded = PLAYERS["analytical"](builder, world, controller, scenario)
     estimator = builder.GetSubsystemByName("ball_flight_estimator")
-    for name, port, size in (("spin_logger", "spin", 3), ("spin_status_logger", "status", 2)):
+    for name, port, size in (("spin_logger", "spin", 3), ("spin_status_logger", "status", 2),
+                             ("spin_state_logger", "state", 6)):
         log = builder.AddNamedSystem(name, VectorLogSink(size, LOG_PERIOD))
         builder.Connect(estimator.GetOutputPort(port), log.get_input_port())
     return seeded
@@ -82,14 +85,20 @@ def serve_report(diagram, ball_world, seed: int) -> dict:
     spin_log = diagram.diagram.GetSubsystemByName("spin_logger").FindLog(ctx)
     status_log = diagram.diagram.GetSubsystemByName("spin_status_logger").FindLog(ctx)
     ball_log = diagram.ball_logger.FindLog(ctx)
+    state_log = diagram.diagram.GetSubsystemByName("spin_state_logger").FindLog(ctx)
     spin_est = _at(spin_log.sample_times(), spin_log.data().T, t_commit)
-    tracking = _at(status_log.sample_times(), status_log.data().T, t_commit)[0] > 0.5
+    status = _at(status_log.sample_times(), status_log.data().T, t_commit)
+    tracking = status[0] > 0.5
+    at_commit = player.planner.predict(_at(state_log.sample_times(), state_log.data().T,
+                                           t_commit), float(status[1]), spin_est)
     spin_true = _at(ball_log.sample_times(), ball_log.data()[7:10].T, t_commit)
     stroke = state.stroke
     row.update({
         "committed": True, "t_commit": t_commit, "tracking_at_commit": bool(tracking),
         "spin_estimate": spin_est.tolist(), "spin_true": spin_true.tolist(),
         "spin_error": float(np.linalg.norm(spin_est - spin_true)),
+        "commit_p_hit_error_mm": (float(1e3 * np.linalg.norm(at_commit[0] - crossing[0:3]))
+                                  if at_commit is not None else float("nan")),
         "p_hit_error_mm": float(1e3 * np.linalg.norm(stroke.p_hit - crossing[0:3])),
         "t_hit_error_ms": float(1e3 * (stroke.t_hit - crossing[9])),
         "impact_spin_error": float(np.linalg.norm(stroke.spin - crossing[6:9])),
@@ -102,8 +111,9 @@ def summarise(rows: list[dict]) -> dict:
     done = [r for r in rows if r.get("committed")]
     out = {"serves": len(rows), "committed": len(done),
            "return_rate": sum(r["returned"] for r in rows) / max(len(rows), 1)}
-    for key in ("spin_error", "impact_spin_error", "p_hit_error_mm"):
+    for key in ("spin_error", "impact_spin_error", "commit_p_hit_error_mm", "p_hit_error_mm"):
         a = np.array([r[key] for r in done])
+        a = a[np.isfinite(a)]
         if len(a):
             out[key] = {"median": float(np.median(a)), "p90": float(np.percentile(a, 90))}
     a = np.abs([r["t_hit_error_ms"] for r in done])
