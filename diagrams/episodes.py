@@ -52,14 +52,16 @@ def _idle_player(builder: DiagramBuilder, world: World, controller, scenario: Sc
     return []
 
 
-def add_vision(builder: DiagramBuilder, world: World, scenario: Scenario):
+def add_vision(builder: DiagramBuilder, world: World, scenario: Scenario,
+               estimator_config=None):
     """Camera (60 Hz, noisy) -> ball-flight estimator; returns (camera, estimator)."""
     from tt_drake.systems.ball_camera import BallCamera
     from tt_drake.systems.ball_flight_estimator import BallFlightEstimator
 
     camera = builder.AddNamedSystem("ball_camera", BallCamera())
     builder.Connect(world.plant.get_state_output_port(world.ball), camera.get_input_port(0))
-    estimator = builder.AddNamedSystem("ball_flight_estimator", BallFlightEstimator())
+    estimator = builder.AddNamedSystem("ball_flight_estimator",
+                                       BallFlightEstimator(estimator_config))
     builder.Connect(camera.GetOutputPort("measurement"), estimator.GetInputPort("measurement"))
     return camera, estimator
 
@@ -126,6 +128,7 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     moves between the stages with the teacher's quintics instead of the motor primitives: the
     learned hitting configuration evaluated on its own."""
     from tt_drake.ball_model import CompliantBounceBallModel
+    from tt_drake.estimation import config_from_dict
     from tt_drake.hitting_point import PhysicalPredictor
     from tt_drake.systems.analytical_player import PlannerConfig, StrokePlanner
     from tt_drake.systems.hitting_configuration import HittingConfiguration
@@ -134,7 +137,10 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     from tt_drake.systems.momp_player import MoMPTrajectorySource
 
     learned = load_learned_player(scenario, primitives)
-    camera, estimator = add_vision(builder, world, scenario)
+    # A GPR is fed the estimates of the filter it was trained on (docs/spin.md).
+    gpr = learned["gpr"]
+    camera, estimator = add_vision(builder, world, scenario,
+                                   config_from_dict(gpr.meta["estimator"]) if gpr else None)
     # Early predictions start the MoMP player's preparation stage at detection (paper section
     # III-C). The crkr player (the teacher's quintic stages, section III-B.2) waits for the final
     # prediction: with ~0.5 s left at detection its stages leave no room for a preparation, so

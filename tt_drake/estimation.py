@@ -104,6 +104,25 @@ class EstimatorConfig:
         return asdict(self)
 
 
+#: The spin prior (rad/s) that makes this filter the spinless (p, v) filter (its NEES and
+#: estimates agree with it to the last digit shown by eval-predictor on 150 serves).
+SPINLESS_PRIOR = 1e-3
+
+
+def config_from_dict(d: dict) -> EstimatorConfig:
+    """The estimator configuration saved with an artefact (``EstimatorConfig.as_dict``). One saved
+    before the filter carried spin has no ``spin_sigma0``: it gets :data:`SPINLESS_PRIOR`, so that
+    an artefact learnt on the spinless filter's (p, v) estimates (the shipped GPR predictor) is
+    fed the same estimates. The numerical settings ``model_dt`` and ``fd_eps`` (which change the
+    estimates by ~1e-9) are this code's. Unknown keys raise ValueError."""
+    fields = set(EstimatorConfig.__dataclass_fields__)
+    unknown = set(d) - fields
+    if unknown:
+        raise ValueError(f"unknown estimator settings {sorted(unknown)}")
+    kept = {k: v for k, v in d.items() if k not in ("model_dt", "fd_eps")}
+    return EstimatorConfig(**{"spin_sigma0": SPINLESS_PRIOR, **kept})
+
+
 def _as_state9(x) -> tuple[tuple, tuple, tuple]:
     s = [float(c) for c in x]
     w = tuple(s[6:9]) if len(s) >= 9 else (0.0, 0.0, 0.0)

@@ -293,3 +293,25 @@ def test_a_gross_outlier_just_after_a_bounce_is_still_rejected():
 def test_crosses_the_hitting_plane_side():
     _, x = truth(launches("default")[0])
     assert x[-1, 1] > PLANES.hitting_y - 0.2
+
+
+def test_an_artefact_saved_before_spin_gets_the_spinless_filter():
+    """The shipped GPR predictor's estimator settings have no spin prior: it is fed a filter whose
+    spin stays at zero in flight (the (p, v) estimates it was trained on); newer settings keep
+    theirs; a setting this code does not know is an error."""
+    from tt_drake.estimation import SPINLESS_PRIOR, config_from_dict
+    from tt_drake.hitting_point import HittingPointGPR
+
+    meta = HittingPointGPR.load("models/learned/predictor.npz").meta["estimator"]
+    assert "spin_sigma0" not in meta
+    assert config_from_dict(meta).spin_sigma0 == SPINLESS_PRIOR
+    assert config_from_dict({"spin_sigma0": 40.0}).spin_sigma0 == 40.0
+    with pytest.raises(ValueError, match="unknown estimator settings"):
+        config_from_dict({"spin_sigma": 40.0})
+    x, r = runs("default")[0]
+    t = np.arange(len(x)) / RATE
+    z = CameraModel(CameraConfig()).measure_sequence(500, x[:, :3])
+    spinless = run_filter(t, z, config_from_dict(meta))
+    before = slice(0, bounce_frames(x)[0])
+    assert np.nanmax(np.abs(spinless.spins[before])) < 0.5  # Magnus of 0.5 rad/s: 3 mm/s^2
+    assert np.nanmax(np.abs(r.spins[before])) > 1.0  # the 50 rad/s prior lets Magnus move it
