@@ -59,10 +59,12 @@ def _idle_player(builder: DiagramBuilder, world: World, controller, scenario: Sc
     return []
 
 
-def add_perception(builder: DiagramBuilder, world: World, scenario: Scenario):
+def add_perception(builder: DiagramBuilder, world: World, scenario: Scenario,
+                   estimator_config=None):
     """What the players see, by ``scenario.perception``: ``camera`` (60 Hz, noisy) -> ball-flight
-    estimator, or ``oracle`` (the true ball state at the camera's frames, no noise). Returns
-    (the systems that draw random numbers, the system with the estimator's output ports)."""
+    estimator (with ``estimator_config``, default :class:`EstimatorConfig`), or ``oracle`` (the
+    true ball state at the camera's frames, no noise). Returns (the systems that draw random
+    numbers, the system with the estimator's output ports)."""
     if scenario.perception == "oracle":
         from tt_drake.systems.ball_oracle import BallOracle
 
@@ -74,7 +76,8 @@ def add_perception(builder: DiagramBuilder, world: World, scenario: Scenario):
 
     camera = builder.AddNamedSystem("ball_camera", BallCamera())
     builder.Connect(world.plant.get_state_output_port(world.ball), camera.get_input_port(0))
-    estimator = builder.AddNamedSystem("ball_flight_estimator", BallFlightEstimator())
+    estimator = builder.AddNamedSystem("ball_flight_estimator",
+                                       BallFlightEstimator(estimator_config))
     builder.Connect(camera.GetOutputPort("measurement"), estimator.GetInputPort("measurement"))
     return [camera], estimator
 
@@ -168,6 +171,7 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     moves between the stages with the teacher's quintics instead of the motor primitives: the
     learned hitting configuration evaluated on its own."""
     from tt_drake.ball_model import CompliantBounceBallModel
+    from tt_drake.estimation import config_from_dict
     from tt_drake.hitting_point import PhysicalPredictor
     from tt_drake.systems.analytical_player import PlannerConfig, StrokePlanner
     from tt_drake.systems.hitting_configuration import HittingConfiguration
@@ -176,7 +180,10 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     from tt_drake.systems.momp_player import MoMPTrajectorySource
 
     learned = load_learned_player(scenario, primitives)
-    seeded, estimator = add_perception(builder, world, scenario)
+    # A GPR is fed the estimates of the filter it was trained on (docs/spin.md).
+    gpr = learned["gpr"]
+    seeded, estimator = add_perception(builder, world, scenario,
+                                       config_from_dict(gpr.meta["estimator"]) if gpr else None)
     # Early predictions start the MoMP player's preparation stage at detection (paper section
     # III-C). The crkr player (the teacher's quintic stages, section III-B.2) waits for the final
     # prediction: with ~0.5 s left at detection its stages leave no room for a preparation, so
@@ -185,9 +192,13 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     # dt = 5 ms: the same crossing as 2 ms to 1e-8 m on a serve, at 2.5x fewer RK4 steps.
     early = (PhysicalPredictor(CompliantBounceBallModel(dt=5e-3))
              if primitives and scenario.learned.early_prediction else None)
-    predictor = builder.AddNamedSystem("hitting_point_predictor",
-                                       HittingPointPredictor(gpr=learned["gpr"], early=early))
+    # After the robot-side bounce the estimator knows the spin: the MoMP player's prediction
+    # follows the ball from there (docs/spin.md).
+    refresh = PhysicalPredictor(CompliantBounceBallModel(dt=5e-3)) if primitives else None
+    predictor = builder.AddNamedSystem("hitting_point_predictor", HittingPointPredictor(
+        gpr=learned["gpr"], early=early, refresh=refresh))
     builder.Connect(estimator.GetOutputPort("state"), predictor.GetInputPort("state"))
+    builder.Connect(estimator.GetOutputPort("spin"), predictor.GetInputPort("spin"))
     builder.Connect(estimator.GetOutputPort("status"), predictor.GetInputPort("status"))
     if scenario.learned.configuration == "crkr":
         configuration = HittingConfiguration("crkr", model=learned["crkr"])

@@ -20,7 +20,10 @@ comes toward the robot and the hitting stage has not begun, the
    (:class:`tt_drake.systems.hitting_ik.HittingIK`);
 4. re-plans the stages from the current desired state (:func:`tt_drake.stages.plan_stroke`).
 
-It stops re-planning once the hitting stage has begun (paper section III-A). A re-plan is
+It stops re-planning once the hitting stage has begun (paper section III-A), except for
+corrections: a prediction that moves more than the racket forgives (the spin seen at the
+robot-side bounce, usually after the hitting stage's start) re-plans the rest of the hitting
+stage from the current desired state, until 80 ms before the hit. A re-plan is
 dropped, keeping the previous one, when the arm solution jumps to another configuration
 (> ``max_branch_change`` on a joint) while the hitting point moved less than
 ``research_distance``, or when the new plan leaves the joint position, velocity or acceleration
@@ -91,6 +94,13 @@ class PlannerConfig:
     replan_position: float = 0.003  # m: a prediction this close to the last one changes nothing
     replan_time: float = 0.002  # s
     replan_spin: float = 10.0  # rad/s at impact: R * 10 rad/s = 0.2 m/s at the contact point
+    # After the hitting stage has begun: a prediction that moved more than the racket forgives
+    # (its blade is 76 mm in radius; a 20 rad/s spin error turns the return by ~0.4 m/s at the
+    # contact) re-plans the rest of the hitting stage, until ``correct_lead`` before the hit.
+    correct_position: float = 0.010  # m
+    correct_time: float = 0.005  # s
+    correct_spin: float = 20.0  # rad/s
+    correct_lead: float = 0.08  # s
     max_branch_change: float = 0.5  # rad: a re-plan moving theta_hit further is another IK branch
     research_distance: float = 0.05  # m: a hitting point this far from the last re-aims fully
     torque_fraction: float = 0.9  # of the effort limits a plan may ask for
@@ -205,6 +215,30 @@ class StrokePlanner:
                 or (spin is not None and float(np.linalg.norm(np.asarray(spin) - previous.spin))
                     > cfg.replan_spin))
 
+    def needs_correction(self, previous: Stroke, p_hit, t_hit, spin) -> bool:
+        """Whether a prediction during the hitting stage moved from the committed one by more
+        than the racket forgives (``correct_*`` of :class:`PlannerConfig`)."""
+        cfg = self.config
+        return (float(np.linalg.norm(np.asarray(p_hit) - previous.p_hit)) > cfg.correct_position
+                or abs(t_hit - previous.t_hit) > cfg.correct_time
+                or float(np.linalg.norm(np.asarray(spin) - previous.spin)) > cfg.correct_spin)
+
+    def correct(self, now: float, current: StagePlan, stroke: Stroke) -> StagePlan | None:
+        """The current plan up to ``now`` and a new hitting segment from the current desired
+        state to the corrected stroke's (theta_hit, theta_dot_hit) at its t_hit, then the
+        follow-through and the return; None if that is not feasible for the arm (keep the
+        committed plan)."""
+        state = current.evaluate(now)
+        try:
+            plan = plan_stroke(now, state, stroke.t_hit, stroke.q_hit, stroke.qd_hit,
+                               self.q_await, self.limits, self.config.times, preparing=True,
+                               allow_wait=False)
+        except ValueError:
+            return None
+        if plan is None or not self.feasible(plan, now):
+            return None
+        return StagePlan(current.truncated(now).segments + plan.segments)
+
     def feasible(self, plan: StagePlan, now: float = -np.inf) -> bool:
         """Within the joint position, velocity and acceleration limits everywhere (sampled at
         200 Hz), and within ``torque_fraction`` of the effort limits from ``now`` on (inverse
@@ -256,10 +290,16 @@ class _PlayerState(Immutable):
 
 
 class AnalyticalPlayer(StagePlanPlayer):
+    """``corrections``: after the hitting stage has begun, re-plan its rest when the prediction
+    moves more than the racket forgives (:meth:`StrokePlanner.needs_correction`): the spin a
+    launcher serve carries is seen only at the robot-side bounce, which for most serves comes
+    after the hitting stage's start (0.4 s before the hit)."""
+
     def __init__(self, planner: StrokePlanner | None = None, rate: float = wp.PLANNING_RATE,
-                 setpoint_lead: float = 0.0):
+                 setpoint_lead: float = 0.0, corrections: bool = True):
         super().__init__(setpoint_lead)
         self.planner = planner or StrokePlanner()
+        self.corrections = corrections
         self._estimate = self.DeclareVectorInputPort("estimated_state", 6)
         self._spin = self.DeclareVectorInputPort("estimated_spin", 3)
         self._status = self.DeclareVectorInputPort("estimator_status", 2)
@@ -276,6 +316,8 @@ class AnalyticalPlayer(StagePlanPlayer):
         old = self.player_state(context)
         now = context.get_time()
         if old.committed:
+            if self.corrections:
+                self._correct(context, state, old, now)
             return
         plan = old.plan
         hit_segment = next((seg for stage, seg in plan.segments if stage == HITTING), None)
@@ -308,3 +350,29 @@ class AnalyticalPlayer(StagePlanPlayer):
         new_plan = self.planner.plan(now, plan, stroke)
         state.get_mutable_abstract_state(self._state_index).set_value(
             _PlayerState(plan if new_plan is None else new_plan, stroke, False, seen))
+
+    def _correct(self, context, state, old: _PlayerState, now: float) -> None:
+        """During the hitting stage: re-plan its rest on a prediction that moved more than the
+        racket forgives, until ``correct_lead`` before the hit (class docstring)."""
+        status = self._status.Eval(context)
+        seen = float(status[1])
+        if status[0] < 0.5 or not seen > old.seen or old.stroke is None:
+            return
+        old = _PlayerState(old.plan, old.stroke, True, seen)
+        state.get_mutable_abstract_state(self._state_index).set_value(old)
+        spin = self._spin.Eval(context) if self._spin.HasValue(context) else None
+        prediction = self.planner.predict(self._estimate.Eval(context), seen, spin)
+        if prediction is None:
+            return
+        p_hit, v_hit, t_hit, spin, _ = prediction
+        cfg = self.planner.config
+        if (t_hit - now < cfg.correct_lead or old.stroke.t_hit - now < cfg.correct_lead
+                or not self.planner.needs_correction(old.stroke, p_hit, t_hit, spin)):
+            return
+        stroke = self.planner.stroke(p_hit, v_hit, t_hit, spin, old.stroke)
+        if stroke is None:
+            return
+        plan = self.planner.correct(now, old.plan, stroke)
+        if plan is not None:
+            state.get_mutable_abstract_state(self._state_index).set_value(
+                _PlayerState(plan, stroke, True, seen))

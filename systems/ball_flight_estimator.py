@@ -12,7 +12,10 @@ Ports:
 
 - input ``measurement`` (5): from ``BallCamera``;
 - output ``state`` (6): estimated (p, v) at ``status[1]`` (zeros while not tracking);
-- output ``covariance`` (36): its covariance, row-major 6 x 6;
+- output ``spin`` (3): estimated spin omega (rad/s, world frame) at the same time (zeros while
+  not tracking);
+- output ``covariance`` (36): the covariance of (p, v), row-major 6 x 6;
+- output ``spin_covariance`` (9): the spin's covariance, row-major 3 x 3;
 - output ``status`` (2): ``(valid, t_state)``; valid = 1 while the filter is tracking.
 """
 
@@ -21,8 +24,11 @@ import math
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from tt_drake.estimation import BallFlightEKF, EstimatorConfig
+from tt_drake.estimation import N_STATE, BallFlightEKF, EstimatorConfig
 from tt_drake.wam_params import PLANNING_RATE
+
+_X = BallFlightEKF.STATE_SLICE
+_P = BallFlightEKF.COVARIANCE_SLICE
 
 
 class BallFlightEstimator(LeafSystem):
@@ -35,7 +41,10 @@ class BallFlightEstimator(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(1.0 / rate, 0.0, self._update)
         deps = {self.xd_ticket()}
         self.DeclareVectorOutputPort("state", 6, self._calc_state, prerequisites_of_calc=deps)
+        self.DeclareVectorOutputPort("spin", 3, self._calc_spin, prerequisites_of_calc=deps)
         self.DeclareVectorOutputPort("covariance", 36, self._calc_cov, prerequisites_of_calc=deps)
+        self.DeclareVectorOutputPort("spin_covariance", 9, self._calc_spin_cov,
+                                     prerequisites_of_calc=deps)
         self.DeclareVectorOutputPort("status", 2, self._calc_status, prerequisites_of_calc=deps)
 
     def _update(self, context, discrete_state):
@@ -51,10 +60,21 @@ class BallFlightEstimator(LeafSystem):
 
     def _calc_state(self, context, output):
         x = context.get_discrete_state(self._xd).get_value()
-        output.SetFromVector(x[2:8] if x[0] == 1.0 else np.zeros(6))
+        output.SetFromVector(x[_X][0:6] if x[0] == 1.0 else np.zeros(6))
+
+    def _calc_spin(self, context, output):
+        x = context.get_discrete_state(self._xd).get_value()
+        output.SetFromVector(x[_X][6:9] if x[0] == 1.0 else np.zeros(3))
+
+    def _covariance(self, context) -> np.ndarray:
+        x = context.get_discrete_state(self._xd).get_value()
+        return x[_P].reshape(N_STATE, N_STATE)
 
     def _calc_cov(self, context, output):
-        output.SetFromVector(context.get_discrete_state(self._xd).get_value()[8:44])
+        output.SetFromVector(self._covariance(context)[0:6, 0:6].ravel())
+
+    def _calc_spin_cov(self, context, output):
+        output.SetFromVector(self._covariance(context)[6:9, 6:9].ravel())
 
     def _calc_status(self, context, output):
         x = context.get_discrete_state(self._xd).get_value()

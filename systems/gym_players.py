@@ -24,7 +24,15 @@ from tt_drake.systems.analytical_player import AnalyticalPlayer, Stroke, _Player
 
 
 class StrokeOffsetPlayer(AnalyticalPlayer):
-    """The analytical player, pausing the simulation when it commits (module docstring)."""
+    """The analytical player, pausing the simulation when it commits (module docstring).
+
+    The agent's stroke is final: this player makes no corrections after the hitting stage has
+    begun (``corrections=False``; the analytical player's corrections would overwrite the
+    agent's offset), so action 0 is the teacher without post-commit corrections."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("corrections", False)
+        super().__init__(*args, **kwargs)
 
     def _update(self, context, state):
         was_committed = self.player_state(context).committed

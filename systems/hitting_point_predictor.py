@@ -16,9 +16,17 @@ prediction is published (``valid`` = 1, ``final`` = 0) when it is the first, or 
 ``early_tolerance`` = (metres, seconds) from the published one, so that a player re-plans only on
 a real change; the final prediction replaces it (``final`` = 1).
 
+With a ``refresh`` physical predictor the final prediction is not held for good: every new
+estimate taken after the robot-side bounce (the model sees no bounce left before the hitting
+plane) gives a physical prediction from the estimated state and spin, published when it moved
+more than ``refresh_tolerance`` from the published one. After that bounce the estimator knows the
+spin (docs/spin.md), which the GPR's features (four states before the bounce) cannot show.
+
 Ports:
 
-- inputs ``state`` (6) and ``status`` (2: valid, t_state) from ``BallFlightEstimator``;
+- inputs ``state`` (6) and ``status`` (2: valid, t_state) from ``BallFlightEstimator``, and
+  ``spin`` (3, rad/s) from it too; an unconnected ``spin`` is taken as zero (the physical
+  predictions then assume a spinless ball, as before spin was estimated);
 - outputs ``p_hit`` (3), ``v_hit`` (3), ``t_hit`` (1), ``valid`` (1) and ``final`` (1).
   ``t_hit`` is an **absolute** simulation time: the capture time of the state predicted from
   plus the predicted time to go (the regressors learn the time to go, which does not depend on
@@ -46,14 +54,18 @@ class HittingPointPredictor(LeafSystem):
                  physical: PhysicalPredictor | None = None, rate: float = PLANNING_RATE,
                  observation_y: float = PLANES.observation_y,
                  early: PhysicalPredictor | None = None,
-                 early_tolerance: tuple[float, float] = (0.02, 0.01)):
+                 early_tolerance: tuple[float, float] = (0.02, 0.01),
+                 refresh: PhysicalPredictor | None = None,
+                 refresh_tolerance: tuple[float, float] = (0.02, 0.01)):
         super().__init__()
         if gpr is None and physical is None:
             physical = PhysicalPredictor()
-        self.gpr, self.physical, self.early = gpr, physical, early
+        self.gpr, self.physical, self.early, self.refresh = gpr, physical, early, refresh
         self.observation_y = observation_y
         self.early_tolerance = tuple(float(x) for x in early_tolerance)
+        self.refresh_tolerance = tuple(float(x) for x in refresh_tolerance)
         self._state = self.DeclareVectorInputPort("state", 6)
+        self._spin = self.DeclareVectorInputPort("spin", 3)
         self._status = self.DeclareVectorInputPort("status", 2)
         initial = np.zeros(_OUT + 9)
         initial[1] = -math.inf
@@ -77,21 +89,51 @@ class HittingPointPredictor(LeafSystem):
 
         return calc
 
-    def predict(self, observations: np.ndarray) -> np.ndarray | None:
-        """(p_hit, v_hit, time to go) from the four observed states (4, 6)."""
+    def predict(self, observations: np.ndarray, spin=None) -> np.ndarray | None:
+        """(p_hit, v_hit, time to go) from the four observed states (4, 6); the physical model
+        starts from the fourth with ``spin`` (zero if None). The GPR's features are the states
+        only (the shipped predictor's layout)."""
         if self.gpr is not None:
             return self.gpr.predict(observations.reshape(-1))
-        return self.physical.predict(observations[-1])
+        return self.physical.predict(_with_spin(observations[-1], spin))
+
+    def _spin_value(self, context) -> np.ndarray | None:
+        return self._spin.Eval(context) if self._spin.HasValue(context) else None
+
+    def _refreshed(self, s, spin, x, t: float) -> np.ndarray | None:
+        """The physical prediction from an estimate after the robot-side bounce, if it moved
+        more than ``refresh_tolerance`` from the published one; else None."""
+        if s[4] >= 0.0 or s[1] >= self.observation_y:
+            return None
+        hit = self.refresh.model.predict_plane(_with_spin(s, spin), self.refresh.plane_y)
+        if hit is None or hit.bounces:
+            return None  # the robot-side bounce is still ahead
+        pred = np.concatenate([hit.position, hit.velocity, [hit.t]])
+        moved = (float(np.linalg.norm(pred[:3] - x[_OUT:_OUT + 3])) > self.refresh_tolerance[0]
+                 or abs(t + pred[6] - x[_OUT + 6]) > self.refresh_tolerance[1])
+        return pred if moved else None
 
     def _update(self, context, discrete_state):
         status = self._status.Eval(context)
         x = context.get_discrete_state(self._xd).get_value()
         t = float(status[1])
-        if status[0] < 0.5 or not t > x[1] or x[_OUT + 8] == 1.0:
+        if status[0] < 0.5 or not t > x[1]:
+            return
+        if x[_OUT + 8] == 1.0:
+            if self.refresh is None:
+                return
+            new = x.copy()
+            new[1] = t
+            pred = self._refreshed(self._state.Eval(context), self._spin_value(context), x, t)
+            if pred is not None:
+                new[_OUT:_OUT + 6] = pred[:6]
+                new[_OUT + 6] = t + pred[6]
+            discrete_state.set_value(self._xd, new)
             return
         new = x.copy()
         new[1] = t
         s = self._state.Eval(context)
+        spin = self._spin_value(context)
         n = int(x[0])
         if s[1] < self.observation_y and s[4] < 0.0:
             new[_OBS + 6 * n:_OBS + 6 * n + 6] = s
@@ -101,13 +143,13 @@ class HittingPointPredictor(LeafSystem):
         new[0] = n
         pred = None
         if n == N_OBSERVATIONS:
-            pred = self.predict(new[_OBS:_OUT].reshape(N_OBSERVATIONS, 6))
+            pred = self.predict(new[_OBS:_OUT].reshape(N_OBSERVATIONS, 6), spin)
             if pred is None:
                 new[0] = 0
             else:
                 new[_OUT + 8] = 1.0
         if pred is None and self.early is not None and s[4] < 0.0:
-            pred = self.early.predict(s)
+            pred = self.early.predict(_with_spin(s, spin))
             if pred is not None and x[_OUT + 7] == 1.0 and not self._moved(x, pred, t):
                 pred = None
         if pred is not None:
@@ -120,3 +162,8 @@ class HittingPointPredictor(LeafSystem):
         """An early prediction farther than ``early_tolerance`` from the published one."""
         return (float(np.linalg.norm(pred[:3] - x[_OUT:_OUT + 3])) > self.early_tolerance[0]
                 or abs(t + pred[6] - x[_OUT + 6]) > self.early_tolerance[1])
+
+
+def _with_spin(state6, spin) -> np.ndarray:
+    """(p, v) and the spin (zero if None) as the ball model's 9-state."""
+    return np.r_[np.asarray(state6, dtype=float), np.zeros(3) if spin is None else spin]

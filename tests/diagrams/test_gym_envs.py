@@ -1,6 +1,7 @@
 """The Gymnasium environments: registration, Gymnasium's own checks, reproducible seeds, and what
 the actions do to the arm and the ball."""
 
+import functools
 import warnings
 
 import gymnasium
@@ -11,9 +12,10 @@ from gymnasium.utils.env_checker import check_env
 import tt_drake.gym  # noqa: F401
 from tt_drake import wam_params as wp
 from tt_drake.constants import PLANES
-from tt_drake.diagrams.episodes import ServeDiagram
+from tt_drake.diagrams.episodes import ServeDiagram, _analytical_player
 from tt_drake.diagrams.gym_envs import ReturnBallEnv, ReturnBallStepEnv
 from tt_drake.diagrams.scenario import ScenarioError, load_scenario
+from tt_drake.systems.analytical_player import AnalyticalPlayer
 
 SERVE = 1234567  # a default serve the analytical player returns on target
 
@@ -52,7 +54,10 @@ def test_episodic_zero_action_is_the_analytical_players_return(episodic):
     assert obs[1] == pytest.approx(PLANES.hitting_y)  # p_hit lies on the virtual hitting plane
     assert obs[4] < 0.0 and 0.05 < obs[6] < 0.6  # coming toward the robot, hit still ahead
     _, reward, terminated, truncated, info = episodic.step(np.zeros(14))
-    teacher = ServeDiagram(load_scenario(), "analytical").run(SERVE).outcome
+    # The teacher without corrections after commit (the agent's stroke is final).
+    no_corrections = functools.partial(AnalyticalPlayer, corrections=False)
+    teacher = ServeDiagram(load_scenario(), functools.partial(
+        _analytical_player, player_type=no_corrections)).run(SERVE).outcome
     assert terminated and not truncated
     assert reward == teacher.reward and info["outcome"] == teacher.as_dict()
     assert info["is_success"] == teacher.on_target

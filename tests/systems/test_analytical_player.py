@@ -13,8 +13,8 @@ from tt_drake.systems.analytical_player import AnalyticalPlayer
 
 @pytest.fixture(scope="module")
 def stroke_run():
-    """Feed the true flight of the fixed serve as the estimate at 60 Hz; sample the outputs at
-    1 kHz until the stroke is over."""
+    """Feed the true flight of the fixed serve (p, v and spin) as the estimate at 60 Hz; sample
+    the outputs at 1 kHz until the stroke is over."""
     player = AnalyticalPlayer()
     context = player.CreateDefaultContext()
     model = CompliantBounceBallModel(dt=1e-3)
@@ -28,6 +28,7 @@ def stroke_run():
             s = model.predict_time(launch, frame / 60.0)
             player.GetInputPort("estimated_state").FixValue(context, np.r_[s.position,
                                                                           s.velocity])
+            player.GetInputPort("estimated_spin").FixValue(context, s.spin)
             player.GetInputPort("estimator_status").FixValue(context, [1.0, frame / 60.0])
             player.ExecuteForcedEvents(context)
             frame += 1

@@ -78,8 +78,12 @@ def test_estimator_matches_the_numpy_filter():
         ekf.step(t, z)
     status = est.GetOutputPort("status").Eval(ctx)
     assert status == pytest.approx([1.0, 9 * PERIOD])
-    assert est.GetOutputPort("state").Eval(ctx) == pytest.approx(ekf.x, abs=1e-12)
-    assert est.GetOutputPort("covariance").Eval(ctx) == pytest.approx(ekf.P.ravel(), abs=1e-15)
+    assert est.GetOutputPort("state").Eval(ctx) == pytest.approx(ekf.x[:6], abs=1e-12)
+    assert est.GetOutputPort("spin").Eval(ctx) == pytest.approx(ekf.x[6:9], abs=1e-12)
+    assert est.GetOutputPort("covariance").Eval(ctx) == pytest.approx(
+        ekf.P[:6, :6].ravel(), abs=1e-15)
+    assert est.GetOutputPort("spin_covariance").Eval(ctx) == pytest.approx(
+        ekf.P[6:9, 6:9].ravel(), abs=1e-12)
 
 
 def test_predictor_collects_four_observations_after_the_plane():
@@ -188,3 +192,47 @@ def test_ball_model_matches_drake_at_the_hitting_plane():
     r = model_vs_drake(s)
     assert r["serves"] == 20
     assert r["position_max_mm"] <= 5.0 and r["time_max_ms"] <= 2.0, r
+
+
+def test_final_prediction_follows_the_ball_after_the_robot_side_bounce():
+    """With a ``refresh`` predictor the final prediction is re-made from the estimated state and
+    spin once the robot-side bounce is behind (and only then), when it moves more than the
+    tolerance; without one it is held. The estimates follow a spinning serve (backspin and
+    sidespin) whose spin the estimator 'learns' at the bounce: before it the estimated spin is
+    zero, after it the model's own."""
+    physical = PhysicalPredictor()
+    model = physical.model
+    launch = np.array([-0.08, 1.57, 0.91, 1.46, -6.14, 2.17, -120.0, 0.0, 60.0])
+    frames = [model.predict_time(launch, k * PERIOD) for k in range(1, 40)]
+    frames = [c for c in frames if c.position[1] > PLANES.hitting_y + 0.1]
+    bounced = [bool(c.bounces) for c in frames]
+    assert any(bounced) and not all(bounced)
+
+    def run(refresh):
+        pred = HittingPointPredictor(physical=physical, refresh=refresh)
+        ctx = pred.CreateDefaultContext()
+        outs = []
+        for k, c in enumerate(frames):
+            spin = c.spin if c.bounces else np.zeros(3)
+            pred.GetInputPort("state").FixValue(ctx, np.r_[c.position, c.velocity])
+            pred.GetInputPort("spin").FixValue(ctx, spin)
+            pred.GetInputPort("status").FixValue(ctx, [1.0, (k + 1) * PERIOD])
+            step(pred, ctx, (k + 1) * PERIOD + PERIOD / 3)
+            outs.append((pred.GetOutputPort("final").Eval(ctx)[0],
+                         np.r_[pred.GetOutputPort("p_hit").Eval(ctx),
+                               pred.GetOutputPort("t_hit").Eval(ctx)]))
+        return outs
+
+    held, followed = run(None), run(PhysicalPredictor())
+    first_final = next(k for k, (final, _) in enumerate(held) if final == 1.0)
+    assert not bounced[first_final]  # the final prediction is made before the bounce
+    truth = model.predict_plane(launch, PLANES.hitting_y)
+    for k in range(first_final, len(frames)):
+        assert np.array_equal(held[k][1], held[first_final][1])
+        if not bounced[k]:
+            assert np.array_equal(followed[k][1], held[k][1])
+    # The zero-spin final prediction misses the spinning ball's crossing by centimetres; once
+    # the bounce is behind, the refreshed one is the model's own crossing.
+    assert np.linalg.norm(held[-1][1][:3] - truth.position) > 0.02
+    assert followed[-1][1][:3] == pytest.approx(truth.position, abs=1e-6)
+    assert followed[-1][1][3] == pytest.approx(truth.t, abs=1e-6)
