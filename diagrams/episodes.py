@@ -54,12 +54,16 @@ def _idle_player(builder: DiagramBuilder, world: World, controller, scenario: Sc
 
 def add_vision(builder: DiagramBuilder, world: World, scenario: Scenario):
     """Camera (60 Hz, noisy) -> ball-flight estimator; returns (camera, estimator)."""
+    from tt_drake.estimation import EstimatorConfig
     from tt_drake.systems.ball_camera import BallCamera
     from tt_drake.systems.ball_flight_estimator import BallFlightEstimator
 
-    camera = builder.AddNamedSystem("ball_camera", BallCamera())
+    camera = builder.AddNamedSystem("ball_camera", BallCamera(scenario.camera))
     builder.Connect(world.plant.get_state_output_port(world.ball), camera.get_input_port(0))
-    estimator = builder.AddNamedSystem("ball_flight_estimator", BallFlightEstimator())
+    # The estimator knows the camera's noise (at least 0.5 mm, so that a noiseless camera's
+    # innovation covariance stays invertible); frames carry their capture time (latency).
+    estimator = builder.AddNamedSystem("ball_flight_estimator", BallFlightEstimator(
+        EstimatorConfig(meas_sigma=max(scenario.camera.sigma, 5e-4))))
     builder.Connect(camera.GetOutputPort("measurement"), estimator.GetInputPort("measurement"))
     return camera, estimator
 
@@ -256,11 +260,18 @@ class ServeDiagram:
         self.controller = None
         self.seeded = [self.launcher]
         if world.robot is not None:
-            from tt_drake.systems.wam import add_wam_controller
+            from tt_drake.systems.wam import add_joint_faults, add_wam_controller
 
             c = scenario.controller
-            self.controller = add_wam_controller(builder, plant, world.robot, c.kp, c.ki, c.kd)
+            self.controller = add_wam_controller(builder, plant, world.robot, c.kp, c.ki, c.kd,
+                                                 mass_scale=c.mass_scale,
+                                                 inertia_scale=c.inertia_scale)
             self.seeded += add_player(builder, world, self.controller, scenario)
+            noise = add_joint_faults(builder, plant, world.robot, self.controller,
+                                     c.joint_coulomb, c.joint_viscous, c.coulomb_velocity,
+                                     c.torque_noise)
+            if noise is not None:
+                self.seeded.append(noise)
             # Arm state and commanded torques at the referee's rate (aligned events: no extra
             # integrator stops), for joint-limit and saturation metrics.
             period = 1.0 / scenario.referee_rate

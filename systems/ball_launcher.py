@@ -14,12 +14,13 @@ once per episode.
 """
 
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, LeafSystem, NumericParameterIndex
 
-from tt_drake.serves import Serve, ServeSampler
+from tt_drake.serves import DEFAULT_VY_RANGE, DEFAULT_X_RANGE, Serve, ServeSampler
 
 
 @dataclass
@@ -27,6 +28,23 @@ class LauncherConfig:
     distribution: str = "default"
     spin_max: float = 0.0  # rad/s per component; 0 serves without spin
     real_serves: str = ""  # path to serves.json; empty: the copy shipped in tt_drake/data
+    # The ``default`` launcher's lateral position x0 (m) and forward launch speed v_y (m/s)
+    # ranges; v_z and v_x follow from them (tt_drake.serves.default_proposal). Narrower ranges
+    # than these defaults only: the proposal band was measured inside them.
+    x_range: list[float] = field(default_factory=lambda: list(DEFAULT_X_RANGE))
+    vy_range: list[float] = field(default_factory=lambda: list(DEFAULT_VY_RANGE))
+
+    def problems(self, prefix: str = "launcher.") -> list[str]:
+        """What is wrong with the ranges (one phrase per field, named with ``prefix``): two
+        finite values lo <= hi inside the defaults'."""
+        out = []
+        for name, default in (("x_range", DEFAULT_X_RANGE), ("vy_range", DEFAULT_VY_RANGE)):
+            r = getattr(self, name)
+            if (len(r) != 2 or not all(math.isfinite(v) for v in r)
+                    or not default[0] <= r[0] <= r[1] <= default[1]):
+                out.append(f"{prefix}{name} must be two finite values lo <= hi within "
+                           f"[{default[0]}, {default[1]}], got {list(r)}")
+        return out
 
 
 class BallLauncher(LeafSystem):
@@ -34,7 +52,8 @@ class BallLauncher(LeafSystem):
         super().__init__()
         self.config = config or LauncherConfig()
         self.sampler = ServeSampler(self.config.distribution, self.config.spin_max,
-                                    self.config.real_serves or None)
+                                    self.config.real_serves or None,
+                                    x_range=self.config.x_range, vy_range=self.config.vy_range)
         self._seed_index = self.DeclareNumericParameter(BasicVector([0.0]))
         depends_on_seed = {self.numeric_parameter_ticket(NumericParameterIndex(self._seed_index))}
         self._serve_port = self.DeclareAbstractOutputPort(
