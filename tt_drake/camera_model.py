@@ -17,8 +17,6 @@ indexed by frame number, so the Drake ``BallCamera`` and the offline pipeline in
 ``diagrams/predictor.py`` produce identical measurements from the same seed.
 """
 
-from __future__ import annotations
-
 import math
 from dataclasses import asdict, dataclass
 
