@@ -227,3 +227,41 @@ def test_controller_config_problems_lists_every_bad_field():
     for name in ("mass_scale", "coulomb_velocity", "torque_noise"):
         assert f"controller.{name}" in problems
     assert ControllerConfig().problems() == []
+
+
+def _hold_awaiting(mass_scale, ki=0.0, duration=1.5):
+    """The arm commanded to hold AWAITING for ``duration`` s with a controller whose masses
+    and inertias are ``mass_scale`` times the arm's; returns (q_d - q, M(q), tau_g(q))."""
+    builder = DiagramBuilder()
+    plant, _ = AddMultibodyPlant(MultibodyPlantConfig(time_step=0.0), builder)
+    robot = wam.add_wam(plant)
+    plant.Finalize()
+    controller = wam.add_wam_controller(builder, plant, robot, ki=[ki] * 7,
+                                        mass_scale=mass_scale, inertia_scale=mass_scale)
+    x = np.r_[np.asarray(AWAITING, dtype=float), np.zeros(7)]
+    state = builder.AddSystem(ConstantVectorSource(x))
+    accel = builder.AddSystem(ConstantVectorSource(np.zeros(7)))
+    builder.Connect(state.get_output_port(), controller.get_input_port_desired_state())
+    builder.Connect(accel.get_output_port(), controller.get_input_port_desired_acceleration())
+    simulator = Simulator(builder.Build())
+    context = simulator.get_mutable_context()
+    plant_context = plant.GetMyMutableContextFromRoot(context)
+    plant.SetPositionsAndVelocities(plant_context, x)
+    simulator.AdvanceTo(duration)
+    q = plant.GetPositions(plant_context)
+    return (x[:7] - q, plant.CalcMassMatrix(plant_context),
+            plant.CalcGravityGeneralizedForces(plant_context))
+
+
+def test_wrong_masses_leave_the_static_offset_of_the_gravity_error_and_ki_removes_it():
+    """At rest the arm needs -tau_g (Drake's tau_g: the generalized gravity force); the
+    controller gives s M kp e - s tau_g with s = mass_scale, so the arm settles where
+    e = (1 - s) / s M^-1 (-tau_g) / kp. An integral term learns the missing torque."""
+    e, mass, gravity = _hold_awaiting(0.9)
+    expected = (0.1 / 0.9) * np.linalg.solve(mass, -gravity) / 900.0
+    assert np.max(np.abs(expected)) > 1e-3  # a visible sag
+    np.testing.assert_allclose(e, expected, atol=2e-5)
+    e_exact, _, _ = _hold_awaiting(1.0)
+    np.testing.assert_allclose(e_exact, 0.0, atol=1e-6)
+    e_integral, _, _ = _hold_awaiting(0.9, ki=2000.0, duration=4.0)
+    assert np.max(np.abs(e_integral)) < 0.05 * np.max(np.abs(expected))
