@@ -65,6 +65,10 @@ def add_perception(builder: DiagramBuilder, world: World, scenario: Scenario,
     estimator (with ``estimator_config``, default :class:`EstimatorConfig`), or ``oracle`` (the
     true ball state at the camera's frames, no noise). Returns (the systems that draw random
     numbers, the system with the estimator's output ports)."""
+    import dataclasses
+
+    from tt_drake.estimation import EstimatorConfig
+
     if scenario.perception == "oracle":
         from tt_drake.systems.ball_oracle import BallOracle
 
@@ -74,8 +78,12 @@ def add_perception(builder: DiagramBuilder, world: World, scenario: Scenario,
     from tt_drake.systems.ball_camera import BallCamera
     from tt_drake.systems.ball_flight_estimator import BallFlightEstimator
 
-    camera = builder.AddNamedSystem("ball_camera", BallCamera())
+    camera = builder.AddNamedSystem("ball_camera", BallCamera(scenario.camera))
     builder.Connect(world.plant.get_state_output_port(world.ball), camera.get_input_port(0))
+    # The estimator knows the camera's noise (at least 0.5 mm, so that a noiseless camera's
+    # innovation covariance stays invertible); frames carry their capture time (latency).
+    estimator_config = dataclasses.replace(estimator_config or EstimatorConfig(),
+                                           meas_sigma=max(scenario.camera.sigma, 5e-4))
     estimator = builder.AddNamedSystem("ball_flight_estimator",
                                        BallFlightEstimator(estimator_config))
     builder.Connect(camera.GetOutputPort("measurement"), estimator.GetInputPort("measurement"))
@@ -316,11 +324,18 @@ class ServeDiagram:
         self.seeded = [self.launcher]
         period = 1.0 / scenario.referee_rate
         if world.robot is not None:
-            from tt_drake.systems.wam import add_wam_controller
+            from tt_drake.systems.wam import add_joint_faults, add_wam_controller
 
             c = scenario.controller
-            self.controller = add_wam_controller(builder, plant, world.robot, c.kp, c.ki, c.kd)
+            self.controller = add_wam_controller(builder, plant, world.robot, c.kp, c.ki, c.kd,
+                                                 mass_scale=c.mass_scale,
+                                                 inertia_scale=c.inertia_scale)
             self.seeded += add_player(builder, world, self.controller, scenario)
+            noise = add_joint_faults(builder, plant, world.robot, self.controller,
+                                     c.joint_coulomb, c.joint_viscous, c.coulomb_velocity,
+                                     c.torque_noise)
+            if noise is not None:
+                self.seeded.append(noise)
             # Arm state and commanded torques at the referee's rate (aligned events: no extra
             # integrator stops), for joint-limit and saturation metrics.
             self.arm_logger = builder.AddNamedSystem("arm_logger", VectorLogSink(14, period))

@@ -15,12 +15,13 @@ once per episode.
 """
 
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, LeafSystem, NumericParameterIndex
 
-from tt_drake.serves import Serve, ServeSampler
+from tt_drake.serves import DEFAULT_VY_RANGE, DEFAULT_X_RANGE, Serve, ServeSampler
 
 
 @dataclass
@@ -35,6 +36,23 @@ class LauncherConfig:
     # distribution then serves its pool in an order keyed by it, without repeats
     # (tt_drake.serves.ServeSampler).
     run_seed: int = -1
+    # The ``default`` launcher's lateral position x0 (m) and forward launch speed v_y (m/s)
+    # ranges; v_z and v_x follow from them (tt_drake.serves.default_proposal). Narrower ranges
+    # than these defaults only: the proposal band was measured inside them.
+    x_range: list[float] = field(default_factory=lambda: list(DEFAULT_X_RANGE))
+    vy_range: list[float] = field(default_factory=lambda: list(DEFAULT_VY_RANGE))
+
+    def problems(self, prefix: str = "launcher.") -> list[str]:
+        """What is wrong with the ranges (one phrase per field, named with ``prefix``): two
+        finite values lo <= hi inside the defaults'."""
+        out = []
+        for name, default in (("x_range", DEFAULT_X_RANGE), ("vy_range", DEFAULT_VY_RANGE)):
+            r = getattr(self, name)
+            if (len(r) != 2 or not all(math.isfinite(v) for v in r)
+                    or not default[0] <= r[0] <= r[1] <= default[1]):
+                out.append(f"{prefix}{name} must be two finite values lo <= hi within "
+                           f"[{default[0]}, {default[1]}], got {list(r)}")
+        return out
 
 
 class BallLauncher(LeafSystem):
@@ -43,7 +61,8 @@ class BallLauncher(LeafSystem):
         self.config = config or LauncherConfig()
         c = self.config
         self.sampler = ServeSampler(c.distribution, c.spin_max, c.real_serves or None,
-                                    rally_path=c.rallies or None, run_seed=c.run_seed)
+                                    rally_path=c.rallies or None, run_seed=c.run_seed,
+                                    x_range=c.x_range, vy_range=c.vy_range)
         self._seed_index = self.DeclareNumericParameter(BasicVector([0.0]))
         depends_on_seed = {self.numeric_parameter_ticket(NumericParameterIndex(self._seed_index))}
         self._serve_port = self.DeclareAbstractOutputPort(

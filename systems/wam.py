@@ -23,7 +23,7 @@ from pydrake.geometry import CollisionFilterDeclaration, GeometrySet, SceneGraph
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.multibody.tree import ModelInstanceIndex
+from pydrake.multibody.tree import BodyIndex, ModelInstanceIndex
 from pydrake.systems.controllers import InverseDynamicsController
 from pydrake.systems.framework import Context, DiagramBuilder
 
@@ -110,26 +110,130 @@ def awaiting_state() -> np.ndarray:
     return np.concatenate([np.asarray(wp.AWAITING, dtype=float), np.zeros(NUM_JOINTS)])
 
 
+def scaled_control_context(control_plant: MultibodyPlant, mass_scale: float = 1.0,
+                           inertia_scale: float = 1.0) -> Context:
+    """A context of ``control_plant`` whose link masses are ``mass_scale`` times the model's and
+    whose rotational inertias about each link's centre of mass are ``inertia_scale`` times the
+    model's (centres of mass unchanged): the controller's wrong belief about the arm."""
+    from pydrake.multibody.tree import SpatialInertia
+
+    context = control_plant.CreateDefaultContext()
+    for index in range(1, control_plant.num_bodies()):  # body 0 is the world
+        body = control_plant.get_body(BodyIndex(index))
+        m = body.default_mass()
+        if not m > 0.0:
+            continue
+        p = body.default_com()
+        inertia_cm = body.default_spatial_inertia().Shift(p).CalcRotationalInertia()
+        body.SetSpatialInertiaInBodyFrame(context, SpatialInertia.MakeFromCentralInertia(
+            mass_scale * m, p, inertia_cm * inertia_scale))
+    return context
+
+
 def add_wam_controller(builder: DiagramBuilder, plant: MultibodyPlant,
                        instance: ModelInstanceIndex, kp=KP, ki=KI, kd=KD,
-                       name: str = "wam_controller") -> InverseDynamicsController:
+                       name: str = "wam_controller", mass_scale: float = 1.0,
+                       inertia_scale: float = 1.0) -> InverseDynamicsController:
     """Add an InverseDynamicsController (own control plant, reference acceleration enabled).
 
     Connected here: plant arm state -> ``estimated_state``; ``actuation`` -> the plant's actuation
     input for ``instance``. Left for the caller: ``desired_state`` ([q_d; v_d], 14) and
     ``desired_acceleration`` (q̈_d, 7); both must be connected or exported. The control plant is
-    reachable as ``controller.get_multibody_plant_for_control()``.
+    reachable as ``controller.get_multibody_plant_for_control()``. ``mass_scale`` and
+    ``inertia_scale`` != 1 make the controller's model differ from the simulated arm
+    (:func:`scaled_control_context`).
     """
     control_plant = make_control_plant()
+    context = None
+    if mass_scale != 1.0 or inertia_scale != 1.0:
+        context = scaled_control_context(control_plant, mass_scale, inertia_scale)
     controller = builder.AddSystem(InverseDynamicsController(
         control_plant, np.asarray(kp, dtype=float), np.asarray(ki, dtype=float),
-        np.asarray(kd, dtype=float), True))
+        np.asarray(kd, dtype=float), True, context))
     controller.set_name(name)
     builder.Connect(plant.get_state_output_port(instance),
                     controller.get_input_port_estimated_state())
     builder.Connect(controller.GetOutputPort("actuation"),
                     plant.get_actuation_input_port(instance))
     return controller
+
+
+def joint_friction_system(coulomb, viscous, velocity_scale: float):
+    """A C++ SymbolicVectorSystem: arm state (q, v) (14) -> joint friction torques (7),
+    ``tau_j = -c_j tanh(v_j / v_s) - b_j v_j`` (Coulomb friction smoothed over ``v_s``, plus
+    viscous friction).
+
+    The system carries one constant continuous state (zero derivative): Drake 1.51's stateless
+    SymbolicVectorSystem fails when a continuous diagram asks it for time derivatives."""
+    from pydrake.symbolic import Expression, MakeVectorVariable, tanh
+    from pydrake.systems.primitives import SymbolicVectorSystem
+
+    x = MakeVectorVariable(2 * NUM_JOINTS, "x")
+    v = x[NUM_JOINTS:]
+    tau = [-float(c) * tanh(v[j] / velocity_scale) - float(b) * v[j]
+           for j, (c, b) in enumerate(zip(coulomb, viscous, strict=True))]
+    dummy = MakeVectorVariable(1, "unused")
+    return SymbolicVectorSystem(state=dummy, dynamics=[Expression(0.0)], input=x, output=tau)
+
+
+class TorqueNoise:
+    """Seeding handle of the torque-noise source (``set_seed(context, seed)`` like the other
+    seeded systems); the source is Drake's C++ ``RandomSource``."""
+
+    def __init__(self, source):
+        self.source = source
+
+    def GetMyMutableContextFromRoot(self, root):  # noqa: N802 (Drake's name)
+        return self.source.GetMyMutableContextFromRoot(root)
+
+    def set_seed(self, context, seed: int) -> None:
+        from pydrake.common import RandomGenerator
+
+        self.source.SetRandomContext(context, RandomGenerator(int(seed) % 2**32))
+
+
+def add_joint_faults(builder: DiagramBuilder, plant: MultibodyPlant,
+                     instance: ModelInstanceIndex, controller, coulomb=None, viscous=None,
+                     velocity_scale: float = 0.05, torque_noise=None,
+                     period: float = wp.SERVO_PERIOD) -> TorqueNoise | None:
+    """Torques on the simulated arm that the controller does not know: joint friction
+    (:func:`joint_friction_system`) and motor torque noise (Gaussian, standard deviation
+    ``torque_noise[j]`` N m, drawn once per servo ``period``, ticks at k * period like the
+    servo's, by a C++ ``RandomSource``). They are added to the controller's actuation before the
+    plant's actuation input, replacing the direct connection :func:`add_wam_controller` made;
+    the controller's ``actuation`` output still reports what it commands. Returns the noise's
+    seeding handle (None without noise). Nothing is added when every value is zero."""
+    from pydrake.common import RandomDistribution
+    from pydrake.systems.primitives import Adder, MatrixGain, RandomSource
+
+    zero = [0.0] * NUM_JOINTS
+    coulomb, viscous = list(coulomb or zero), list(viscous or zero)
+    noise = list(torque_noise or zero)
+    friction = any(coulomb) or any(viscous)
+    if not friction and not any(noise):
+        return None
+    terms = []
+    if friction:
+        f = builder.AddNamedSystem("joint_friction",
+                                   joint_friction_system(coulomb, viscous, velocity_scale))
+        builder.Connect(plant.get_state_output_port(instance), f.get_input_port())
+        terms.append(f.get_output_port())
+    handle = None
+    if any(noise):
+        source = builder.AddNamedSystem("torque_noise_source", RandomSource(
+            RandomDistribution.kGaussian, NUM_JOINTS, period))
+        gain = builder.AddNamedSystem("torque_noise", MatrixGain(np.diag(noise)))
+        builder.Connect(source.get_output_port(), gain.get_input_port())
+        terms.append(gain.get_output_port())
+        handle = TorqueNoise(source)
+    adder = builder.AddNamedSystem("arm_torque", Adder(len(terms) + 1, NUM_JOINTS))
+    actuation = plant.get_actuation_input_port(instance)
+    builder.Disconnect(controller.GetOutputPort("actuation"), actuation)
+    builder.Connect(controller.GetOutputPort("actuation"), adder.get_input_port(0))
+    for k, port in enumerate(terms):
+        builder.Connect(port, adder.get_input_port(k + 1))
+    builder.Connect(adder.get_output_port(), actuation)
+    return handle
 
 
 def add_servo_hold(builder: DiagramBuilder, desired_state, desired_acceleration,

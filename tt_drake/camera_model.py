@@ -17,18 +17,17 @@ indexed by frame number, so the Drake ``BallCamera`` and the offline pipeline in
 ``diagrams/predictor.py`` produce identical measurements from the same seed.
 """
 
-from __future__ import annotations
-
 import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
 
-@dataclass(frozen=True)
+@dataclass
 class CameraConfig:
     """Camera parameters (SI units). Defaults: 60 Hz, sigma = 3 mm per axis, no latency, no
-    dropouts, no outliers."""
+    dropouts, no outliers. The scenario's ``camera:`` section (a plain dataclass so that
+    ``yaml_load_typed`` can fill it; :meth:`problems` checks it after loading)."""
 
     rate: float = 60.0
     sigma: float = 0.003
@@ -40,16 +39,37 @@ class CameraConfig:
     max_frames: int = 600  # frames drawn per episode (10 s at 60 Hz)
 
     def __post_init__(self):
+        problems = self.problems()
+        if problems:
+            raise ValueError("; ".join(problems))
+
+    def problems(self, prefix: str = "camera.") -> list[str]:
+        """What is wrong with the values (one phrase per field, named with ``prefix``): every
+        value finite, rate > 0, sigma and latency >= 0, probabilities in [0, 1],
+        0 <= outlier_min <= outlier_max, max_frames >= 1."""
+        out = []
+        for name in ("rate", "sigma", "latency", "dropout", "outlier", "outlier_min",
+                     "outlier_max"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, float)) or not math.isfinite(value):
+                out.append(f"{prefix}{name} must be a finite number, got {value!r}")
+        if out:
+            return out
         if not self.rate > 0.0:
-            raise ValueError(f"camera rate must be > 0, got {self.rate}")
-        if self.sigma < 0.0 or self.latency < 0.0:
-            raise ValueError("camera sigma and latency must be >= 0")
+            out.append(f"{prefix}rate must be > 0, got {self.rate}")
+        for name in ("sigma", "latency"):
+            if getattr(self, name) < 0.0:
+                out.append(f"{prefix}{name} must be >= 0, got {getattr(self, name)}")
         for name in ("dropout", "outlier"):
             p = getattr(self, name)
             if not 0.0 <= p <= 1.0:
-                raise ValueError(f"camera {name} probability must be in [0, 1], got {p}")
+                out.append(f"{prefix}{name} probability must be in [0, 1], got {p}")
         if not 0.0 <= self.outlier_min <= self.outlier_max:
-            raise ValueError("camera outlier range must satisfy 0 <= outlier_min <= outlier_max")
+            out.append(f"{prefix}outlier_min and outlier_max must satisfy 0 <= outlier_min <= "
+                       f"outlier_max, got {self.outlier_min}, {self.outlier_max}")
+        if not isinstance(self.max_frames, int) or self.max_frames < 1:
+            out.append(f"{prefix}max_frames must be an integer >= 1, got {self.max_frames!r}")
+        return out
 
     @property
     def period(self) -> float:
@@ -57,8 +77,10 @@ class CameraConfig:
 
     @property
     def latency_frames(self) -> int:
-        """Whole frames between capture and delivery: ceil(latency * rate)."""
-        return int(math.ceil(self.latency * self.rate - 1e-9))
+        """Whole frames between capture and delivery: ceil(latency * rate), where a latency
+        within 0.1 % of a frame above a whole number of frames counts as that number (so the
+        0.016667 s of a YAML file is one frame at 60 Hz, not two)."""
+        return int(math.ceil(self.latency * self.rate - 1e-3))
 
     def as_dict(self) -> dict:
         return asdict(self)

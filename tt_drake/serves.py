@@ -65,16 +65,19 @@ DEFAULT_X_RANGE = (-0.4, 0.6)
 DEFAULT_VY_RANGE = (-8.0, -3.2)
 
 
-def default_proposal(rng: np.random.Generator) -> tuple[float, float, float, float]:
-    """Draw (x0, vx, vy, vz) for a ``default`` serve candidate.
+def default_proposal(rng: np.random.Generator, x_range=DEFAULT_X_RANGE,
+                     vy_range=DEFAULT_VY_RANGE) -> tuple[float, float, float, float]:
+    """Draw (x0, vx, vy, vz) for a ``default`` serve candidate; x0 uniform in ``x_range``, vy
+    uniform in ``vy_range`` (a scenario's ``launcher.x_range`` and ``vy_range`` may narrow the
+    defaults: the band below was measured inside them), vz and vx in the band at (x0, vy).
 
     The band was measured by rejection sampling a wide box (x0 in [-0.4, 0.6], v in
     [-1.5, 1.5] x [-8, -3] x [1, 6] m/s; 9.5 % kept): valid serves have v_z between two quadratics
     in v_y and v_x within 1 m/s of 0.44 - 1.46 x0. The band adds 0.2 m/s margins, so it keeps every
     valid serve of the box while about half of its draws are kept.
     """
-    x0 = rng.uniform(*DEFAULT_X_RANGE)
-    vy = rng.uniform(*DEFAULT_VY_RANGE)
+    x0 = rng.uniform(*x_range)
+    vy = rng.uniform(*vy_range)
     vz_low = 0.1789 * vy * vy + 2.7767 * vy + 12.0666 - 0.2
     vz_high = 0.1311 * vy * vy + 2.3208 * vy + 12.2732 + 0.2
     vz = rng.uniform(vz_low, vz_high)
@@ -269,13 +272,16 @@ class ServeSampler:
 
     def __init__(self, distribution: str = "default", spin_max: float = 0.0,
                  real_path: Path | None = None, model: BallModel | None = None,
-                 rally_path: Path | None = None, run_seed: int = -1):
+                 rally_path: Path | None = None, run_seed: int = -1,
+                 x_range=DEFAULT_X_RANGE, vy_range=DEFAULT_VY_RANGE):
         self.kind, self.split = parse_distribution(distribution)
         if not spin_max >= 0.0:
             raise ServeError(f"spin_max must be >= 0 rad/s, got {spin_max}")
         self.distribution = distribution
         self.spin_max = (SPIN_DEFAULT if self.kind == "spin" and spin_max == 0.0
                          else float(spin_max))
+        self.x_range = (float(x_range[0]), float(x_range[1]))
+        self.vy_range = (float(vy_range[0]), float(vy_range[1]))
         self.model = model or BallModel(dt=8e-3)  # RK4: 8 ms steps agree with 1 ms to 1e-8 m
         self.run_seed = int(run_seed)
         self._paths = {"real": real_path, "rally": rally_path}
@@ -355,7 +361,7 @@ class ServeSampler:
             return Serve(ball.state.copy(), ball.crossing, source_id=ball.id)
         rng = np.random.default_rng(seed)
         for _ in range(1000):
-            x0, vx, vy, vz = default_proposal(rng)
+            x0, vx, vy, vz = default_proposal(rng, self.x_range, self.vy_range)
             w = rng.uniform(-self.spin_max, self.spin_max, 3) if self.spin_max > 0 else np.zeros(3)
             state = np.array([x0, LAUNCHER_Y, LAUNCHER_Z, vx, vy, vz, *w])
             crossing = serve_is_valid(self.model, state)
