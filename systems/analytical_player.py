@@ -325,17 +325,10 @@ class AnalyticalPlayer(StagePlanPlayer):
             new = _PlayerState(plan, old.stroke, committed=True)
             state.get_mutable_abstract_state(self._state_index).set_value(new)
             return
-        status = self._status.Eval(context)
-        seen = float(status[1])
-        if status[0] < 0.5 or not seen > old.seen:
+        fresh = self._fresh_prediction(context, state, old, old.committed)
+        if fresh is None:
             return
-        old = _PlayerState(old.plan, old.stroke, old.committed, seen)
-        state.get_mutable_abstract_state(self._state_index).set_value(old)
-        spin = self._spin.Eval(context) if self._spin.HasValue(context) else None
-        prediction = self.planner.predict(self._estimate.Eval(context), seen, spin)
-        if prediction is None:
-            return
-        p_hit, v_hit, t_hit, spin, _ = prediction
+        seen, (p_hit, v_hit, t_hit, spin, _) = fresh
         if t_hit - now < 0.05:
             return
         moved = self.planner.needs_replan(old.stroke, p_hit, t_hit, spin)
@@ -351,20 +344,28 @@ class AnalyticalPlayer(StagePlanPlayer):
         state.get_mutable_abstract_state(self._state_index).set_value(
             _PlayerState(plan if new_plan is None else new_plan, stroke, False, seen))
 
+    def _fresh_prediction(self, context, state, old: _PlayerState, committed: bool):
+        """(seen, the planner's prediction) from an estimate newer than the last one acted on,
+        which the state then records as seen; None if there is none or it predicts no hit."""
+        status = self._status.Eval(context)
+        seen = float(status[1])
+        if status[0] < 0.5 or not seen > old.seen:
+            return None
+        state.get_mutable_abstract_state(self._state_index).set_value(
+            _PlayerState(old.plan, old.stroke, committed, seen))
+        spin = self._spin.Eval(context) if self._spin.HasValue(context) else None
+        prediction = self.planner.predict(self._estimate.Eval(context), seen, spin)
+        return None if prediction is None else (seen, prediction)
+
     def _correct(self, context, state, old: _PlayerState, now: float) -> None:
         """During the hitting stage: re-plan its rest on a prediction that moved more than the
         racket forgives, until ``correct_lead`` before the hit (class docstring)."""
-        status = self._status.Eval(context)
-        seen = float(status[1])
-        if status[0] < 0.5 or not seen > old.seen or old.stroke is None:
+        if old.stroke is None:
             return
-        old = _PlayerState(old.plan, old.stroke, True, seen)
-        state.get_mutable_abstract_state(self._state_index).set_value(old)
-        spin = self._spin.Eval(context) if self._spin.HasValue(context) else None
-        prediction = self.planner.predict(self._estimate.Eval(context), seen, spin)
-        if prediction is None:
+        fresh = self._fresh_prediction(context, state, old, True)
+        if fresh is None:
             return
-        p_hit, v_hit, t_hit, spin, _ = prediction
+        seen, (p_hit, v_hit, t_hit, spin, _) = fresh
         cfg = self.planner.config
         if (t_hit - now < cfg.correct_lead or old.stroke.t_hit - now < cfg.correct_lead
                 or not self.planner.needs_correction(old.stroke, p_hit, t_hit, spin)):
