@@ -49,29 +49,11 @@ class ControllerConfig:
     coulomb_velocity: float = 0.1
     torque_noise: list[float] = field(default_factory=_zeros7)
 
-    def problems(self, prefix: str = "controller.") -> list[str]:
-        """What is wrong with the values (one phrase per field, named with ``prefix``): seven
-        finite values per joint list, gains and friction and noise >= 0, kp and kd > 0, scales in
-        [0.1, 10], coulomb_velocity > 0."""
-        out = []
-        for name in ("kp", "ki", "kd", "joint_viscous", "joint_coulomb", "torque_noise"):
-            values = getattr(self, name)
-            if len(values) != 7:
-                out.append(f"{prefix}{name} needs 7 values, got {len(values)}")
-            elif not all(math.isfinite(v) for v in values):
-                out.append(f"{prefix}{name} must be finite, got {list(values)}")
-            elif any(v < 0.0 for v in values) or (name in ("kp", "kd")
-                                                  and not all(v > 0.0 for v in values)):
-                out.append(f"{prefix}{name} must be {'> 0' if name in ('kp', 'kd') else '>= 0'}"
-                           f", got {list(values)}")
-        for name in ("mass_scale", "inertia_scale"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and 0.1 <= value <= 10.0):
-                out.append(f"{prefix}{name} must be in [0.1, 10], got {value}")
-        if not (math.isfinite(self.coulomb_velocity) and self.coulomb_velocity > 0.0):
-            out.append(f"{prefix}coulomb_velocity must be finite and > 0, got "
-                       f"{self.coulomb_velocity}")
-        return out
+    def problems(self) -> list[str]:
+        """What is wrong with the values: the ``controller.*`` rules of :data:`FIELD_RULES`
+        (seven finite values per joint list, gains, friction and noise >= 0, kp and kd > 0,
+        scales in [0.1, 10], coulomb_velocity > 0)."""
+        return rule_problems(self, "controller")
 
 
 @dataclass
@@ -156,10 +138,10 @@ def number(minimum: float | None = None, maximum: float | None = None,
             return f"must be a number (got {value!r})"
         if not math.isfinite(value):
             return f"must be finite (got {value})"
-        if above is not None and not value > above:
-            return f"must be > {above:g} (got {value:g})"
         if minimum is not None and value < minimum:
             return f"must be >= {minimum:g} (got {value:g})"
+        if above is not None and not value > above:
+            return f"must be > {above:g} (got {value:g})"
         if maximum is not None and value > maximum:
             return f"must be <= {maximum:g} (got {value:g})"
         return None
@@ -253,37 +235,51 @@ FIELD_RULES: dict[str, Check] = {
     "referee.velocity_jump": number(above=0.0),
     "referee.racket_reach": number(above=0.0),
     "referee_rate": number(above=0.0, maximum=MAX_RATE),
-    "controller.kp": each(7, number(minimum=0.0)),
+    "controller.kp": each(7, number(minimum=0.0, above=0.0)),
     "controller.ki": each(7, number(minimum=0.0)),
-    "controller.kd": each(7, number(minimum=0.0)),
+    "controller.kd": each(7, number(minimum=0.0, above=0.0)),
+    "controller.mass_scale": number(minimum=0.1, maximum=10.0),
+    "controller.inertia_scale": number(minimum=0.1, maximum=10.0),
+    "controller.joint_viscous": each(7, number(minimum=0.0)),
+    "controller.joint_coulomb": each(7, number(minimum=0.0)),
+    "controller.coulomb_velocity": number(above=0.0),
+    "controller.torque_noise": each(7, number(minimum=0.0)),
     "after_crossing": number(above=0.0, maximum=60.0),
 }
 
 
-def _field(scenario: Scenario, path: str):
-    value = scenario
+def _field(config, path: str):
+    value = config
     for name in path.split("."):
         value = getattr(value, name)
     return value
+
+
+def rule_problems(config, root: str = "") -> list[str]:
+    """``path problem`` for every rule of :data:`FIELD_RULES` that ``config`` breaks: the whole
+    scenario (``root`` empty) or the config at ``root`` (e.g. ``controller``)."""
+    problems = []
+    prefix = f"{root}." if root else ""
+    for path, check in FIELD_RULES.items():
+        if not path.startswith(prefix):
+            continue
+        try:
+            value = _field(config, path[len(prefix):])
+        except AttributeError:
+            continue  # a field of a newer config that this object does not have
+        problem = check(value)
+        if problem:
+            problems.append(f"{path} {problem}")
+    return problems
 
 
 def validate(scenario: Scenario, origin: object = "scenario") -> None:
     """Check every field of :data:`FIELD_RULES` (finite, sign, range, choices, model files);
     raise ScenarioError with one line naming each invalid field. Nothing invalid reaches Drake:
     ``load_scenario`` and ``ServeDiagram`` call this before building anything."""
-    problems = []
-    for path, check in FIELD_RULES.items():
-        if path == "world.models.robot" and not scenario.world.with_robot:
-            continue
-        try:
-            value = _field(scenario, path)
-        except AttributeError:
-            continue  # a field of a newer config that this scenario object does not have
-        problem = check(value)
-        if problem:
-            problems.append(f"{path} {problem}")
-    # The configs that check themselves (ranges that depend on each other or on defaults).
-    problems += scenario.controller.problems()
+    problems = [p for p in rule_problems(scenario)
+                if scenario.world.with_robot or not p.startswith("world.models.robot ")]
+    # The configs that also live outside scenarios check themselves (their cross-field ranges).
     problems += scenario.camera.problems()
     problems += scenario.launcher.problems()
     if problems:
