@@ -291,7 +291,7 @@ def stroke_summary(stroke) -> dict | None:
 class ServeDiagram:
     """The serve diagram of one scenario and player, built once and reused for every episode."""
 
-    def __init__(self, scenario: Scenario, player: str | Callable = "idle", meshcat=None,
+    def __init__(self, scenario: Scenario, player: str | Callable = "idle",
                  log_ball: bool = False, record: bool = False,
                  end_when_decided: bool | None = None, log_setpoints: bool = False):
         """``player``: a name in :data:`PLAYERS`, or a function with their signature (tools:
@@ -306,8 +306,7 @@ class ServeDiagram:
         # whole stroke is wanted: demonstrations (the return to the awaiting posture is one).
         # A recording (``log_ball``) ends it as an unrecorded run does, and is extended after the
         # result is taken (:meth:`extend`): recording is observation only.
-        self.end_when_decided = (not (record or meshcat is not None)
-                                 if end_when_decided is None else end_when_decided)
+        self.end_when_decided = not record if end_when_decided is None else end_when_decided
         builder = DiagramBuilder()
         world = add_world(builder, scenario.world)
         self.world = world
@@ -384,12 +383,6 @@ class ServeDiagram:
                     "prediction_logger", VectorLogSink(4, period))
                 builder.Connect(self.player.GetOutputPort("predicted_hit"),
                                 self.prediction_logger.get_input_port())
-        self.visualizer = None
-        if meshcat is not None:
-            from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
-
-            self.visualizer = MeshcatVisualizer.AddToBuilder(
-                builder, world.scene_graph, meshcat, MeshcatVisualizerParams(publish_period=1 / 60))
         self.diagram = builder.Build()
         self.diagram.set_name("serve_diagram")
         self.simulator = make_simulator(self.diagram, scenario.world)

@@ -36,17 +36,17 @@ def run_serves(scenario: Scenario, player: str, serves: int, seed: int, html: st
             check_writable(path)
     scenario = copy.deepcopy(scenario)
     scenario.launcher.run_seed = seed
-    if not html and workers > 1:
-        return _run_parallel(scenario, player, serves, seed, json_path, progress, workers,
-                             ceiling)
-    diagram = ServeDiagram(scenario, player, log_ball=bool(html))
     recording = None
-    if html:
-        from tt_drake.diagrams.recording import Recording
+    if not html and workers > 1:
+        results = _episodes(scenario, player, serves, seed, progress, workers)
+    else:
+        diagram = ServeDiagram(scenario, player, log_ball=bool(html))
+        if html:
+            from tt_drake.diagrams.recording import Recording
 
-        recording = Recording(scenario, diagram.library)
-    seeds = (episode_seed(seed, i) for i in range(serves))
-    results = serve_episodes(diagram, seeds, recording, progress, player, total=serves)
+            recording = Recording(scenario, diagram.library)
+        seeds = (episode_seed(seed, i) for i in range(serves))
+        results = serve_episodes(diagram, seeds, recording, progress, player, total=serves)
     data = _report(scenario, player, seed, results)
     if ceiling:
         add_ceiling(data, scenario, player, serves, seed, results, progress, workers)
@@ -144,17 +144,6 @@ def add_ceiling(data: dict, scenario: Scenario, player: str, serves: int, seed: 
     summary["return_rate_of_returnable"] = returned / n if n else None
     for episode, ok in zip(data["episodes"], returnable, strict=True):
         episode["returnable"] = bool(ok)
-
-
-def _run_parallel(scenario, player, serves, seed, json_path, progress, workers,
-                  ceiling=False) -> dict:
-    results = _episodes(scenario, player, serves, seed, progress, workers)
-    data = _report(scenario, player, seed, results)
-    if ceiling:
-        add_ceiling(data, scenario, player, serves, seed, results, progress, workers)
-    if json_path:
-        write_json_atomic(json_path, data)
-    return data
 
 
 def format_summary(data: dict) -> str:
