@@ -198,11 +198,10 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     # it began the hitting stage on the first early prediction and stayed committed to it
     # (1,300 serves, seed 21: 97.9 % legal returns instead of 100 %, every miss a single plan).
     # dt = 5 ms: the same crossing as 2 ms to 1e-8 m on a serve, at 2.5x fewer RK4 steps.
-    early = (PhysicalPredictor(CompliantBounceBallModel(dt=5e-3))
-             if primitives and scenario.learned.early_prediction else None)
     # After the robot-side bounce the estimator knows the spin: the MoMP player's prediction
-    # follows the ball from there (docs/spin.md).
+    # follows the ball from there (docs/spin.md). One stateless physical predictor serves both.
     refresh = PhysicalPredictor(CompliantBounceBallModel(dt=5e-3)) if primitives else None
+    early = refresh if scenario.learned.early_prediction else None
     predictor = builder.AddNamedSystem("hitting_point_predictor", HittingPointPredictor(
         gpr=learned["gpr"], early=early, refresh=refresh))
     builder.Connect(estimator.GetOutputPort("state"), predictor.GetInputPort("state"))
