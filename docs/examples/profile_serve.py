@@ -3,9 +3,9 @@
     OPENBLAS_NUM_THREADS=1 python docs/examples/profile_serve.py momp [--serves 8] [--seed 3]
 
 Builds the serve diagram once (learned players: the shipped artefacts in models/learned/), runs
-one warm-up episode, then profiles ``--serves`` episodes with ``cProfile.Profile(time.process_time)``
-and prints each system's share of the CPU time (the cumulative time of its update or output
-function, per serve) and the most expensive functions.
+one warm-up episode, then profiles ``--serves`` episodes with
+``cProfile.Profile(time.process_time)`` and prints each system's share of the CPU time (the
+cumulative time of its update or output function, per serve) and the most expensive functions.
 """
 
 from __future__ import annotations
