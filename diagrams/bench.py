@@ -60,6 +60,7 @@ class ReferenceDiagram:
 
         world_config = copy.copy(scenario.world)
         world_config.simulator = REFERENCE_SIMULATOR
+        world_config.flight_accuracy = 0.0  # the recipe: one accuracy throughout
         builder = DiagramBuilder()
         self.world = add_world(builder, world_config)
         c = scenario.controller
