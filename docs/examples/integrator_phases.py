@@ -13,7 +13,8 @@ told apart by the ball's state at the end of each simulator step:
 - ``flight out``: after the hit (the ball moving away from the robot), away from the table;
 
 and the ball's spin (|omega|) in each. ``--accuracy`` overrides the scenario's integrator
-accuracy (the default: 1e-4) for an experiment.
+accuracy (the default: 1e-4) and ``--flight-accuracy`` its accuracy away from contacts
+(:class:`tt_drake.systems.world.ContactAccuracy`; the default scenario: 1e-3, 0: off).
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from pydrake.systems.framework import EventStatus
 
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
+from tt_drake.systems.world import ContactAccuracy
 
 LEARNED = Path(__file__).resolve().parents[2] / "models" / "learned"
 PHASES = ("flight in", "table", "racket", "flight out")
@@ -38,6 +40,9 @@ def main() -> None:
     ap.add_argument("--serves", type=int, default=10)
     ap.add_argument("--seed", type=int, default=3)
     ap.add_argument("--accuracy", type=float, default=None)
+    ap.add_argument("--flight-accuracy", type=float, default=None)
+    ap.add_argument("--spin-max", type=float, default=0.0,
+                    help="> 0: the spin distribution with this spin per axis (rad/s)")
     args = ap.parse_args()
     scenario = load_scenario()
     scenario.learned.library = str(LEARNED / "library.npz")
@@ -45,7 +50,15 @@ def main() -> None:
     scenario.learned.predictor = str(LEARNED / "predictor.npz")
     if args.accuracy is not None:
         scenario.world.simulator.accuracy = args.accuracy
+    if args.flight_accuracy is not None:
+        scenario.world.flight_accuracy = args.flight_accuracy
+    if args.spin_max > 0.0:
+        scenario.launcher.distribution, scenario.launcher.spin_max = "spin", args.spin_max
     d = ServeDiagram(scenario, args.player)
+    schedule = None  # this script's monitor replaces the simulator's: it calls the schedule
+    if scenario.world.flight_accuracy > 0.0:
+        schedule = ContactAccuracy(d.simulator, d.diagram, scenario.world.simulator.accuracy,
+                                   scenario.world.flight_accuracy)
     plant, world = d.world.plant, d.world
     ball = world.ball_body
     racket = (plant.GetFrameByName("racket_center", world.robot)
@@ -59,6 +72,8 @@ def main() -> None:
     last = {}
 
     def monitor(root):
+        if schedule is not None:
+            schedule(root)
         pc = plant.GetMyContextFromRoot(root)
         pose = plant.EvalBodyPoseInWorld(pc, ball)
         p = pose.translation()
@@ -88,8 +103,9 @@ def main() -> None:
     for i in range(args.serves):
         last.clear()
         d.run(episode_seed(args.seed, i))
-    acc = scenario.world.simulator.accuracy
-    print(f"{args.player}, {args.serves} serves (seed {args.seed}), accuracy {acc:g}: per serve")
+    acc, flight = scenario.world.simulator.accuracy, scenario.world.flight_accuracy
+    print(f"{args.player}, {args.serves} serves (seed {args.seed}), accuracy {acc:g}, flight "
+          f"accuracy {flight:g}: per serve")
     print(f"{'phase':12s} {'sim ms':>8s} {'steps':>8s} {'evals':>8s} {'shrinks':>8s} "
           f"{'mean step ms':>12s} {'median |w| rad/s':>16s}")
     n = args.serves
