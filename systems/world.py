@@ -3,7 +3,9 @@
 Simulation recipe (DESIGN.md, facts.md section 4): a continuous plant (``time_step = 0``), point
 contact with Hunt-Crossley dissipation, stiction tolerance 1e-2 m/s, integrated by error-controlled
 RK3 with accuracy 1e-4 and a maximum step of 2 ms. These are the defaults of
-:class:`WorldConfig`; scenario YAML files may override them.
+:class:`WorldConfig`; scenario YAML files may override them. With ``flight_accuracy`` (the default
+scenario: 1e-3) the accuracy is relaxed to it while nothing can touch the ball
+(:class:`ContactAccuracy`); every contact keeps the recipe's.
 """
 
 
