@@ -220,6 +220,7 @@ FIELD_RULES: dict[str, Check] = {
     "world.simulator.accuracy": number(above=0.0, maximum=1.0),
     "world.simulator.start_time": number(minimum=0.0),
     "world.simulator.target_realtime_rate": number(minimum=0.0),
+    "world.flight_accuracy": number(minimum=0.0, maximum=1.0),
     "world.models.table": check_model_file,
     "world.models.ball": check_model_file,
     "world.models.robot": check_model_file,

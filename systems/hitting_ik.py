@@ -54,7 +54,7 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.multibody.inverse_kinematics import InverseKinematics
-from pydrake.multibody.tree import JacobianWrtVariable
+from pydrake.multibody.tree import JacobianWrtVariable, MultibodyForces
 from pydrake.solvers import SnoptSolver, SolverOptions
 
 from tt_drake import wam_params as wp
@@ -291,8 +291,6 @@ class HittingIK:
         """Joint torques tau = M(q) q_ddot + C(q, q_dot) q_dot - tau_g(q) that the arm (with its
         racket) needs to follow (q, q_dot, q_ddot): inverse dynamics on the control plant, the
         same model the InverseDynamicsController uses."""
-        from pydrake.multibody.tree import MultibodyForces
-
         self.plant.SetPositions(self.context, np.asarray(q, dtype=float))
         self.plant.SetVelocities(self.context, np.asarray(qdot, dtype=float))
         if not hasattr(self, "_forces"):

@@ -124,7 +124,7 @@ class Referee(LeafSystem):
         if self._racket_centre is None or not self.get_input_port(1).HasValue(context):
             return None
         x = self.get_input_port(1).Eval(context)
-        return _RacketAt(tuple(x[:self._racket_centre.num_positions]), self._racket_centre)
+        return _RacketAt(tuple(x[:self._racket_centre.num_positions].tolist()), self._racket_centre)
 
     def _robot_touches_table(self, context) -> bool:
         if not self._table_geometries or not self.get_input_port(2).HasValue(context):
@@ -141,9 +141,10 @@ class Referee(LeafSystem):
 
     def _update(self, context, state):
         old = context.get_abstract_state(self._state_index).get_value()
-        s = self.get_input_port(0).Eval(context)
-        cur = (*ContactDetector.sample(context.get_time(), s[4:7], s[10:13], s[7:10])[:4],
-               self._racket_center(context))
+        # ContactDetector.sample's tuple of plain floats, made at once (tolist) at 250 Hz.
+        s = self.get_input_port(0).Eval(context).tolist()
+        cur = (float(context.get_time()), (s[4], s[5], s[6]), (s[10], s[11], s[12]),
+               (s[7], s[8], s[9]), self._racket_center(context))
         events = old.events
         decided = False
         if old.sample is not None:

@@ -3,10 +3,13 @@
 Simulation recipe (DESIGN.md, facts.md section 4): a continuous plant (``time_step = 0``), point
 contact with Hunt-Crossley dissipation, stiction tolerance 1e-2 m/s, integrated by error-controlled
 RK3 with accuracy 1e-4 and a maximum step of 2 ms. These are the defaults of
-:class:`WorldConfig`; scenario YAML files may override them.
+:class:`WorldConfig`; scenario YAML files may override them. With ``flight_accuracy`` (the default
+scenario: 1e-3) the accuracy is relaxed to it while nothing can touch the ball
+(:class:`ContactAccuracy`); every contact keeps the recipe's.
 """
 
 
+import math
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -15,7 +18,7 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, MultibodyPlantConfig
 from pydrake.multibody.tree import ModelInstanceIndex
 from pydrake.systems.analysis import Simulator, SimulatorConfig
-from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.framework import DiagramBuilder, EventStatus
 
 
 def default_plant_config() -> MultibodyPlantConfig:
@@ -42,6 +45,9 @@ class WorldConfig:
     simulator: SimulatorConfig = field(default_factory=default_simulator_config)
     models: ModelFiles = field(default_factory=ModelFiles)
     with_robot: bool = True
+    # > 0: the integrator's accuracy while nothing can touch the ball (ContactAccuracy); the
+    # simulator's own accuracy applies near every contact. 0: the simulator's accuracy always.
+    flight_accuracy: float = 0.0
 
 
 class ModelFileError(FileNotFoundError):
@@ -118,9 +124,100 @@ def set_ball_state(world: World, plant_context, launch_state) -> None:
 
 
 def make_simulator(diagram, config: WorldConfig) -> Simulator:
+    """A simulator of ``diagram`` at ``config.simulator``; with ``config.flight_accuracy`` > 0
+    also the :class:`ContactAccuracy` monitor (the diagram's plant must be named ``plant``)."""
     from pydrake.systems.analysis import ApplySimulatorConfig
 
     simulator = Simulator(diagram)
     ApplySimulatorConfig(config.simulator, simulator)
+    if config.flight_accuracy > 0.0:
+        simulator.set_monitor(ContactAccuracy(simulator, diagram, config.simulator.accuracy,
+                                              config.flight_accuracy))
     return simulator
+
+
+class ContactAccuracy:
+    """A simulator monitor (called after every integrator step) that sets the error-controlled
+    integrator's target accuracy: ``contact`` (the scenario's, 1e-4) whenever the ball may touch
+    the table, the net, the floor or the racket within ``horizon`` seconds, ``flight`` (looser)
+    otherwise.
+
+    Most of a serve's integrator steps are spent where nothing touches the ball: in flight, the
+    swinging arm under its controller limits the steps to ~1 ms at 1e-4 (the ball alone, even
+    spinning, takes the 2 ms maximum; docs/performance.md). A looser accuracy there changes the
+    arm's tracking by far less than anything the players or the referee resolve, while every
+    contact (the table bounce, the racket hit) is still integrated at the recipe's accuracy. The
+    ball may touch something within the horizon if (with p, v its centre and velocity, R its
+    radius):
+
+    - table: over the table (+5 cm) and ``p_z - (z_table + R) < max(0, -v_z) horizon + 1 cm``;
+    - net: ``|p_y| < 10 cm + |v_y| horizon``, below the net's top + R + 5 cm and within its
+      span (posts included) + R + 5 cm;
+    - floor: ``p_z < R + 2 cm + max(0, -v_z) horizon``;
+    - racket: within ``12 cm + (|v|_1 + 10 m/s) horizon`` of the blade centre (the racket
+      moving at up to 10 m/s).
+
+    The decision uses the state at the end of each step, so the step that reaches a contact is
+    already taken at the contact accuracy (the horizon spans five 2 ms steps)."""
+
+    def __init__(self, simulator: Simulator, diagram, contact: float, flight: float,
+                 horizon: float = 0.01):
+        from tt_drake.constants import BALL, NET, TABLE
+        from tt_drake.wam_params import RACKET_CENTER_FRAME
+
+        self._simulator = simulator
+        self._plant = plant = diagram.GetSubsystemByName("plant")
+        ball = plant.GetBodyByName("ball")
+        self._ball = ball.model_instance()
+        self._accuracy = (float(contact), float(flight))
+        self._horizon = float(horizon)
+        r = BALL.radius
+        self._contact_z = TABLE.surface_z + r
+        self._half = (0.5 * TABLE.width + 0.05, 0.5 * TABLE.length + 0.05)
+        self._net_top = TABLE.surface_z + NET.height + r + 0.05
+        self._net_x = NET.half_span + r + 0.05
+        self._radius = r
+        self._racket = None
+        if plant.HasFrameNamed(RACKET_CENTER_FRAME):
+            from tt_drake.systems.hitting_ik import REACH_BOUND, SHOULDER
+
+            frame = plant.GetFrameByName(RACKET_CENTER_FRAME)
+            # The blade centre stays within REACH_BOUND of the shoulder: a ball farther than that
+            # (plus the racket's distance) needs no forward kinematics.
+            self._racket = (frame.body(), frame.GetFixedPoseInBodyFrame().translation(),
+                            tuple(float(c) for c in SHOULDER), REACH_BOUND)
+        self._succeeded = EventStatus.Succeeded
+
+    def near_contact(self, plant_context) -> bool:
+        """Whether the ball may touch the table, net, floor or racket within the horizon."""
+        x = self._plant.GetPositionsAndVelocities(plant_context, self._ball).tolist()
+        px, py, pz, vx, vy, vz = x[4], x[5], x[6], x[10], x[11], x[12]
+        h = self._horizon
+        fall = max(0.0, -vz) * h
+        if (abs(px) < self._half[0] and abs(py) < self._half[1]
+                and pz - self._contact_z < fall + 0.01):
+            return True
+        if abs(py) < 0.1 + abs(vy) * h and pz < self._net_top and abs(px) < self._net_x:
+            return True
+        if pz < self._radius + 0.02 + fall:
+            return True
+        if self._racket is not None:
+            body, offset, shoulder, arm_reach = self._racket
+            reach = 0.12 + (abs(vx) + abs(vy) + abs(vz) + 10.0) * h
+            dx, dy, dz = shoulder[0] - px, shoulder[1] - py, shoulder[2] - pz
+            if math.sqrt(dx * dx + dy * dy + dz * dz) > arm_reach + reach:
+                return False
+            c = self._plant.EvalBodyPoseInWorld(plant_context, body).multiply(offset)
+            dx, dy, dz = c[0] - px, c[1] - py, c[2] - pz
+            if dx * dx + dy * dy + dz * dz < reach * reach:
+                return True
+        return False
+
+    def __call__(self, root_context):
+        near = self.near_contact(self._plant.GetMyContextFromRoot(root_context))
+        target = self._accuracy[0] if near else self._accuracy[1]
+        integrator = self._simulator.get_mutable_integrator()
+        if integrator.get_target_accuracy() != target:
+            integrator.set_target_accuracy(target)
+        return self._succeeded()
 

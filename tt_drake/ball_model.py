@@ -318,17 +318,25 @@ class BallModel:
             raise ValueError(f"ball state must have 6 or 9 entries, got shape {s.shape}")
         if not np.all(np.isfinite(s)):
             raise ValueError("ball state contains NaN or infinity")
-        pos, vel = tuple(s[0:3]), tuple(s[3:6])
-        w = tuple(s[6:9]) if s.size == 9 else (0.0, 0.0, 0.0)
+        # Python floats (tolist), not numpy scalars: the same numbers, at a third of the cost
+        # per arithmetic operation.
+        x = s.tolist()
+        pos, vel = tuple(x[0:3]), tuple(x[3:6])
+        w = tuple(x[6:9]) if s.size == 9 else (0.0, 0.0, 0.0)
         t = 0.0
         bounces: list[Bounce] = []
         g0 = stop(t, pos, vel)
         if g0 <= 0.0:
             return None
+        # The innermost loop of every prediction: locals, and table_impact's cheap precondition
+        # (the step goes down through the contact height) tested here, not in a call per step.
+        dt, step, floor = self.dt, self.flight_step, p.radius
+        contact_z = p.table_z + p.radius
         while t < max_time:
-            h = min(self.dt, max_time - t)
-            new_p, new_v = self.flight_step(pos, vel, w, h)
-            impact = self.table_impact(pos, vel, w, h, new_p, new_v)
+            h = dt if max_time - t > dt else max_time - t
+            new_p, new_v = step(pos, vel, w, h)
+            impact = (self.table_impact(pos, vel, w, h, new_p, new_v)
+                      if new_p[2] < contact_z <= pos[2] and new_v[2] < 0.0 else None)
             if impact is not None:
                 th, hp, hv = impact
                 # Check the stop event before the impact first.
@@ -340,7 +348,7 @@ class BallModel:
                 continue
             if stop(t + h, new_p, new_v) <= 0.0:
                 return self._finish(t, pos, vel, w, h, stop, bounces)
-            if new_p[2] < p.radius:
+            if new_p[2] < floor:
                 return None
             pos, vel, t = new_p, new_v, t + h
         return None

@@ -206,6 +206,22 @@ def _spin_forcing(c: float, v: tuple) -> tuple[float, ...]:
             c * vy, -c * vx, 0.0)
 
 
+def _axpy18(a: tuple, h: float, b: tuple) -> tuple[float, ...]:
+    """a + h b for 3 x 6 matrices (row-major 18-tuples)."""
+    (a0, a1, a2, a3, a4, a5, a6, a7, a8, a9, a10, a11, a12, a13, a14, a15, a16, a17) = a
+    (b0, b1, b2, b3, b4, b5, b6, b7, b8, b9, b10, b11, b12, b13, b14, b15, b16, b17) = b
+    return (a0 + h * b0, a1 + h * b1, a2 + h * b2, a3 + h * b3, a4 + h * b4, a5 + h * b5,
+            a6 + h * b6, a7 + h * b7, a8 + h * b8, a9 + h * b9, a10 + h * b10, a11 + h * b11,
+            a12 + h * b12, a13 + h * b13, a14 + h * b14, a15 + h * b15, a16 + h * b16,
+            a17 + h * b17)
+
+
+def _rk4_18(x: tuple, h6: float, k1: tuple, k2: tuple, k3: tuple, k4: tuple) -> tuple:
+    """The RK4 update x + h/6 (k1 + 2 k2 + 2 k3 + k4) of a 3 x 6 matrix (row-major
+    18-tuples), term by term in that order."""
+    return tuple([x[i] + h6 * (k1[i] + 2 * k2[i] + 2 * k3[i] + k4[i]) for i in range(18)])
+
+
 def flight_step_spin_variational(model: BallModel, pos: tuple, vel: tuple, w: tuple, h: float,
                                  dp: tuple, dv: tuple):
     """One RK4 flight step (``model.flight_step``, the same numbers) with the sensitivities of
@@ -240,17 +256,13 @@ def flight_step_spin_variational(model: BallModel, pos: tuple, vel: tuple, w: tu
              vel[1] + h6 * (a1[1] + 2 * a2[1] + 2 * a3[1] + a4[1]),
              vel[2] + h6 * (a1[2] + 2 * a2[2] + 2 * a3[2] + a4[2]))
     d1 = _jac_times(jac(vel, w), dv, _spin_forcing(c, vel))
-    x2 = tuple(a + hh * b for a, b in zip(dv, d1, strict=True))
+    x2 = _axpy18(dv, hh, d1)
     d2 = _jac_times(jac(v2, w), x2, _spin_forcing(c, v2))
-    x3 = tuple(a + hh * b for a, b in zip(dv, d2, strict=True))
+    x3 = _axpy18(dv, hh, d2)
     d3 = _jac_times(jac(v3, w), x3, _spin_forcing(c, v3))
-    x4 = tuple(a + h * b for a, b in zip(dv, d3, strict=True))
+    x4 = _axpy18(dv, h, d3)
     d4 = _jac_times(jac(v4, w), x4, _spin_forcing(c, v4))
-    new_dp = tuple(p0 + h6 * (k1 + 2 * k2 + 2 * k3 + k4)
-                   for p0, k1, k2, k3, k4 in zip(dp, dv, x2, x3, x4, strict=True))
-    new_dv = tuple(q0 + h6 * (k1 + 2 * k2 + 2 * k3 + k4)
-                   for q0, k1, k2, k3, k4 in zip(dv, d1, d2, d3, d4, strict=True))
-    return new_p, new_v, new_dp, new_dv
+    return new_p, new_v, _rk4_18(dp, h6, dv, x2, x3, x4), _rk4_18(dv, h6, d1, d2, d3, d4)
 
 
 def propagate_flight_jacobian(model: BallModel, x, duration: float
@@ -270,10 +282,13 @@ def propagate_flight_jacobian(model: BallModel, x, duration: float
           0.0, 1.0, 0.0, 0.0, 0.0, 0.0,
           0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
     t = 0.0
+    contact_z = model.params.table_z + model.params.radius
     while duration - t > 1e-12:
         h = min(model.dt, duration - t)
         new_p, new_v, new_dp, new_dv = flight_step_spin_variational(model, pos, vel, w, h, dp, dv)
-        if model.table_impact(pos, vel, w, h, new_p, new_v) is not None:
+        # table_impact's precondition (the step goes down through the contact height) first.
+        if (new_p[2] < contact_z <= pos[2] and new_v[2] < 0.0
+                and model.table_impact(pos, vel, w, h, new_p, new_v) is not None):
             return None
         pos, vel, dp, dv, t = new_p, new_v, new_dp, new_dv, t + h
     F = np.eye(N_STATE)

@@ -1,0 +1,82 @@
+"""CPU time per serve of each Python system of the serve diagram, without a profiler.
+
+    OPENBLAS_NUM_THREADS=1 python docs/examples/system_cpu.py momp [--serves 10] [--seed 3]
+
+Wraps the update and output functions of the Python systems (EKF, hitting-point predictor,
+players, servo set-points, referee) with a ``time.process_time`` accumulator before the diagram is
+built, runs one warm-up episode, then ``--serves`` episodes, and prints each system's CPU
+milliseconds per serve and share of the serve (cProfile's per-call overhead inflates Python-heavy
+code about twofold; this wrapper adds well under a microsecond per call). Used for
+docs/performance.md; run it in two checkouts to compare them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import time
+from collections import defaultdict
+from pathlib import Path
+
+from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
+from tt_drake.diagrams.scenario import load_scenario
+
+LEARNED = Path(__file__).resolve().parents[2] / "models" / "learned"
+
+# (label, module, class, method)
+WRAPPED = [
+    ("EKF", "tt_drake.systems.ball_flight_estimator", "BallFlightEstimator", "_update"),
+    ("hitting-point predictor", "tt_drake.systems.hitting_point_predictor",
+     "HittingPointPredictor", "_update"),
+    ("MoMP planning tick", "tt_drake.systems.momp_player", "MoMPTrajectorySource", "_update"),
+    ("servo set-points (state)", "tt_drake.systems.stage_player", "StagePlanPlayer",
+     "_calc_state"),
+    ("servo set-points (accel.)", "tt_drake.systems.stage_player", "StagePlanPlayer",
+     "_calc_accel"),
+    ("referee", "tt_drake.systems.referee", "Referee", "_update"),
+]
+
+
+def main() -> None:
+    import importlib
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("player")
+    ap.add_argument("--serves", type=int, default=10)
+    ap.add_argument("--seed", type=int, default=3)
+    args = ap.parse_args()
+    spent = defaultdict(float)
+    clock = time.process_time
+    for label, module, cls, name in WRAPPED:
+        owner = getattr(importlib.import_module(module), cls)
+        inner = getattr(owner, name)
+
+        def timed(*a, _inner=inner, _label=label, **k):
+            t0 = clock()
+            try:
+                return _inner(*a, **k)
+            finally:
+                spent[_label] += clock() - t0
+
+        setattr(owner, name, functools.wraps(inner)(timed))
+    scenario = load_scenario()
+    scenario.learned.library = str(LEARNED / "library.npz")
+    scenario.learned.crkr = str(LEARNED / "crkr.npz")
+    scenario.learned.predictor = str(LEARNED / "predictor.npz")
+    diagram = ServeDiagram(scenario, args.player)
+    diagram.run(episode_seed(args.seed, 0))
+    spent.clear()
+    c0 = clock()
+    for i in range(args.serves):
+        diagram.run(episode_seed(args.seed, i))
+    total = clock() - c0
+    n = args.serves
+    print(f"{args.player}: {1e3 * total / n:.1f} CPU ms per serve ({n} serves, seed {args.seed})")
+    rows = [(label, spent[label]) for label, _, _, _ in WRAPPED if label in spent]
+    rows.append(("these systems together", sum(spent.values())))
+    for label, cpu in rows:
+        print(f"  {label:28s} {1e3 * cpu / n:6.1f} ms {100 * cpu / total:5.1f} %")
+
+
+if __name__ == "__main__":
+    main()
