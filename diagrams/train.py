@@ -55,6 +55,8 @@ from tt_drake.outputs import check_writable, portable_path
 from tt_drake.stages import AWAITING, FOLLOW_THROUGH, HITTING, PREPARATION, STAGES
 from tt_drake.stimulus import (
     PAPER_STIMULUS,
+    SPIN_STIMULUS,
+    STIMULI,
     compose_stimulus,
     describe_stimulus,
     stimulus_layout,
@@ -170,6 +172,32 @@ def _representative(demos: list[Demonstration], stage: str) -> Demonstration:
         raise TrainError(f"no usable {stage} demonstration in the successful strokes")
     taus = np.array([d.tau for d in demos])
     return demos[int(np.argsort(taus)[len(taus) // 2])]
+
+
+# The library and CrKR settings of the hard reproduce profile (issue #14; measured in
+# docs/motor_primitives.md section 10). The paper profile keeps train_library's defaults.
+HARD_PROFILE = {"demonstrations": "recorded", "alpha_y": 15.0, "stimulus": SPIN_STIMULUS}
+
+
+def library_options(config) -> dict:
+    """train_library's keyword arguments from a reproduce profile's config: its attributes
+    ``demonstrations``, ``alpha_y`` and ``stimulus`` if it has them (else the paper's)."""
+    out = {}
+    if getattr(config, "demonstrations", None) is not None:
+        out["demonstrations"] = config.demonstrations
+    if getattr(config, "alpha_y", None) is not None:
+        out["dmp"] = HittingDMP(alpha_y=float(config.alpha_y))
+    out["stimulus"] = stimulus_of(config)
+    return out
+
+
+def stimulus_of(config) -> tuple[str, ...]:
+    """The stimulus layout of a reproduce profile's config (attribute ``stimulus``: a layout or
+    a name of :data:`tt_drake.stimulus.STIMULI`; absent: the paper's)."""
+    value = getattr(config, "stimulus", None)
+    if value is None:
+        return PAPER_STIMULUS
+    return stimulus_layout(STIMULI[value] if isinstance(value, str) else value)
 
 
 def train_library(data_dir, out, primitives: int = 300, dmp: HittingDMP | None = None,

@@ -16,12 +16,14 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["STIMULUS_PARTS", "PAPER_STIMULUS", "SPIN_STIMULUS", "stimulus_layout",
+__all__ = ["STIMULUS_PARTS", "PAPER_STIMULUS", "SPIN_STIMULUS", "STIMULI", "stimulus_layout",
            "stimulus_size", "compose_stimulus", "describe_stimulus"]
 
 STIMULUS_PARTS = {"p_hit": 3, "v_hit": 3, "spin_hit": 3}
 PAPER_STIMULUS = ("p_hit", "v_hit")
 SPIN_STIMULUS = ("p_hit", "v_hit", "spin_hit")
+# Named layouts (the command line's --stimulus).
+STIMULI = {"paper": PAPER_STIMULUS, "spin": SPIN_STIMULUS}
 
 
 def stimulus_layout(names) -> tuple[str, ...]:

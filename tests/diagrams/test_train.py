@@ -123,3 +123,59 @@ def test_only_the_momp_player_acts_on_early_predictions(artefacts):
     final = predictor.GetOutputPort("p_hit").Eval(predictor.GetMyContextFromRoot(diagram.context))
     assert result.stroke["replans"] == 1
     np.testing.assert_allclose(result.stroke["stimulus"][:3], final, atol=1e-5)
+
+
+def test_recorded_spin_library_and_crkr_from_the_cli(artefacts, tmp_path, capsys):
+    """train library with the recorded demonstrations, a stimulus with spin, other DMP gains
+    and no borrowing: all recorded in the artefact; the stimuli's spin is the teacher's."""
+    from tt_drake.diagrams.collect import load_dataset
+    from tt_drake.stimulus import SPIN_STIMULUS
+
+    data, _, _ = artefacts
+    dataset = load_dataset(data)
+    out, crkr = tmp_path / "lib.npz", tmp_path / "crkr.npz"
+    assert main(["train", "library", "--data", str(data), "--out", str(out), "--demonstrations",
+                 "recorded", "--stimulus", "spin", "--alpha-y", "15", "--hitting-borrow", "0",
+                 "--stage-borrow", "0.5"]) == 0
+    library, _, meta = load_player_library(out, "default", PLANES.hitting_y)
+    assert library.stimulus_layout == SPIN_STIMULUS and library.dmp.alpha_y == 15.0
+    assert meta["demonstrations"] == "recorded" and meta["borrowed_dofs"] == 0
+    ok = np.flatnonzero(dataset["returned"] > 0.5)
+    np.testing.assert_array_equal(library.stimuli[:, 6:], dataset["spin_hit"][ok])
+    assert main(["train", "crkr", "--data", str(data), "--out", str(crkr), "--stimulus",
+                 "spin"]) == 0
+    model, meta = load_configuration_model(crkr, "default", PLANES.hitting_y)
+    assert model.stimulus == SPIN_STIMULUS and meta["inputs"] == "p_hit, v_hit, spin_hit (9)"
+    capsys.readouterr()
+    for bad in (["--alpha-y", "0"], ["--hitting-borrow", "1.5"], ["--demonstrations", "x"]):
+        with pytest.raises(SystemExit) as exit_:
+            main(["train", "library", "--data", str(data), "--out", str(tmp_path / "x.npz"),
+                  *bad])
+        assert exit_.value.code == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "error" in err
+    assert not (tmp_path / "x.npz").exists()
+
+
+def test_a_dataset_without_recorded_states_is_refused_for_recorded_demonstrations(
+        artefacts, tmp_path, capsys):
+    from tt_drake.artefacts import load_artefact, save_artefact
+    from tt_drake.diagrams.collect import KIND, PER_SERVE
+
+    data, _, _ = artefacts
+    old = tmp_path / "old"
+    old.mkdir()
+    for f in data.iterdir():  # as collected before the arm's state was recorded
+        if f.suffix == ".npz":
+            arrays, meta = load_artefact(f, KIND, allow_nonfinite=PER_SERVE)
+            arrays = {k: v for k, v in arrays.items()
+                      if k not in ("recorded", "recorded_serve", "spin_hit")}
+            save_artefact(old / f.name, KIND, arrays, meta)
+        else:
+            (old / f.name).write_bytes(f.read_bytes())
+    assert main(["train", "library", "--data", str(old), "--out", str(tmp_path / "a.npz")]) == 0
+    for option in (["--demonstrations", "recorded"], ["--stimulus", "spin"]):
+        assert main(["train", "library", "--data", str(old), "--out", str(tmp_path / "b.npz"),
+                     *option]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "collect it again" in err
