@@ -37,7 +37,7 @@ NAN7 = [math.nan] * 7
 class DemonstrationRecorder:
     def __init__(self, builder, world, scenario):
         plant = world.plant
-        period = 1.0 / scenario.referee_rate
+        period = self.referee_period = 1.0 / scenario.referee_rate
         self.ball_log = builder.AddNamedSystem("demo_ball_logger", VectorLogSink(13, period))
         builder.Connect(plant.get_state_output_port(world.ball), self.ball_log.get_input_port())
         self.estimator_log = self.status_log = None
@@ -102,10 +102,13 @@ class DemonstrationRecorder:
         if spin is not None:
             record["spin_hit"] = [float(w) for w in spin]
         if self.arm_log is not None:
+            # The referee reports the contact at its first tick after it: up to a period late.
+            contact = (None if outcome.hit_time is None
+                       else outcome.hit_time - self.referee_period)
             arm = self.arm_log.FindLog(context)
             acc = self.acceleration_log.FindLog(context)
             record["recorded"] = recorded_stages(arm.sample_times(), arm.data().T,
-                                                 acc.data().T, spans)
+                                                 acc.data().T, spans, contact)
         return record
 
 
@@ -174,11 +177,15 @@ def sample_stages(plan, t_hit: float, spans: dict | None = None
     return (np.array(rows) if rows else np.zeros((0, 23))), durations
 
 
-def recorded_stages(times, state, acceleration, spans: dict) -> np.ndarray:
+def recorded_stages(times, state, acceleration, spans: dict,
+                    contact: float | None = None) -> np.ndarray:
     """The arm's logged samples inside each stage's span, rows (t, stage, q (7), q_dot (7),
     q_ddot (7)) as :func:`sample_stages` lays them out: ``state`` (K, 14) is the plant's measured
     (q, q_dot) and ``acceleration`` (K, 7) its generalized acceleration at ``times`` (K,), copied
-    unchanged. A sample on the boundary of two stages belongs to the earlier one."""
+    unchanged. A sample on the boundary of two stages belongs to the earlier one. The hitting
+    stage ends before ``contact`` (the racket's contact with the ball, if any, usually a few ms
+    before t_hit): the impact's acceleration spike is the ball's doing, not the stroke's shape,
+    and a demonstration keeping it puts it into the last basis functions' weights."""
     times = np.asarray(times, dtype=float)
     rows = []
     taken = np.zeros(len(times), dtype=bool)
@@ -187,6 +194,8 @@ def recorded_stages(times, state, acceleration, spans: dict) -> np.ndarray:
     for _, index, (lo, hi) in order:  # in time order
         inside = (times >= lo - 1e-9) & (times <= hi + 1e-9) & ~taken
         taken |= inside
+        if index == STAGES.index(HITTING) and contact is not None:
+            inside &= times < contact
         k = np.flatnonzero(inside)
         rows.append(np.column_stack([times[k], np.full(len(k), index), state[k, :7],
                                      state[k, 7:14], acceleration[k]]))

@@ -55,7 +55,6 @@ from tt_drake.outputs import check_writable, portable_path
 from tt_drake.stages import AWAITING, FOLLOW_THROUGH, HITTING, PREPARATION, STAGES
 from tt_drake.stimulus import (
     PAPER_STIMULUS,
-    SPIN_STIMULUS,
     STIMULI,
     compose_stimulus,
     describe_stimulus,
@@ -176,15 +175,18 @@ def _representative(demos: list[Demonstration], stage: str) -> Demonstration:
 
 # The library and CrKR settings of the hard reproduce profile (issue #14; measured in
 # docs/motor_primitives.md section 10). The paper profile keeps train_library's defaults.
-HARD_PROFILE = {"demonstrations": "recorded", "alpha_y": 15.0, "stimulus": SPIN_STIMULUS}
+HARD_PROFILE = {"demonstrations": "recorded", "alpha_y": 15.0, "stimulus": "spin",
+                "hitting_borrow": 0.0, "stage_borrow": WEAK_AMPLITUDE_RATIO}
 
 
 def library_options(config) -> dict:
     """train_library's keyword arguments from a reproduce profile's config: its attributes
-    ``demonstrations``, ``alpha_y`` and ``stimulus`` if it has them (else the paper's)."""
+    ``demonstrations``, ``alpha_y``, ``stimulus``, ``hitting_borrow`` and ``stage_borrow`` if
+    it has them (else the paper profile's: train_library's defaults)."""
     out = {}
-    if getattr(config, "demonstrations", None) is not None:
-        out["demonstrations"] = config.demonstrations
+    for name in ("demonstrations", "hitting_borrow", "stage_borrow"):
+        if getattr(config, name, None) is not None:
+            out[name] = getattr(config, name)
     if getattr(config, "alpha_y", None) is not None:
         out["dmp"] = HittingDMP(alpha_y=float(config.alpha_y))
     out["stimulus"] = stimulus_of(config)

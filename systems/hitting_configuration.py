@@ -9,8 +9,9 @@ Two sources, chosen at construction:
   ``tt-drake train crkr`` on the teacher's successful strokes;
 - ``"analytical"``: the teacher's aim + racket law + IK
   (:meth:`tt_drake.systems.analytical_player.StrokePlanner.stroke`) on the same predicted stimulus.
-  The predictor does not estimate spin, so the ball is taken as spinless here (the teacher itself
-  uses the spin its physical model gives the bounce; this is a documented difference).
+  The ball is taken as spinless here (the teacher itself uses the spin its physical model gives
+  the bounce; this is a documented difference, kept so that the paper profile's row is unchanged,
+  although the predictor's ``spin_hit`` would now give it).
 
 The CrKR stimulus is the model's layout (:mod:`tt_drake.stimulus`, recorded in its artefact):
 (p_hit, v_hit), or with the predicted spin at impact ``spin_hit`` appended.

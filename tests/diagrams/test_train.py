@@ -179,3 +179,18 @@ def test_a_dataset_without_recorded_states_is_refused_for_recorded_demonstration
                      *option]) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and "collect it again" in err
+
+
+def test_reproduce_profiles_pass_their_library_settings():
+    """A profile's config without the settings trains the paper's library (train_library's
+    defaults); the hard profile's settings arrive as train_library's arguments."""
+    from types import SimpleNamespace
+
+    from tt_drake.diagrams.train import HARD_PROFILE, library_options, stimulus_of
+    from tt_drake.stimulus import PAPER_STIMULUS, SPIN_STIMULUS
+
+    assert library_options(SimpleNamespace(primitives=300)) == {"stimulus": PAPER_STIMULUS}
+    hard = library_options(SimpleNamespace(**HARD_PROFILE))
+    assert hard["stimulus"] == SPIN_STIMULUS and hard["dmp"].alpha_y == 15.0
+    assert hard["demonstrations"] == "recorded" and hard["hitting_borrow"] == 0.0
+    assert stimulus_of(SimpleNamespace(stimulus=["p_hit", "v_hit"])) == PAPER_STIMULUS
