@@ -27,15 +27,16 @@ STIMULI = {"paper": PAPER_STIMULUS, "spin": SPIN_STIMULUS}
 
 
 def stimulus_layout(names) -> tuple[str, ...]:
-    """``names`` checked as a layout (a non-empty sequence of distinct known parts); ValueError
-    naming the problem otherwise."""
+    """``names`` checked as a layout (distinct known parts, beginning with the paper's p_hit,
+    v_hit: players read p_hit as the stimulus' first three values); ValueError naming the
+    problem otherwise."""
     if isinstance(names, str) or not isinstance(names, list | tuple) or not names:
         raise ValueError(f"a stimulus layout is a non-empty list of parts, got {names!r}")
     layout = tuple(names)
     unknown = [n for n in layout if n not in STIMULUS_PARTS]
-    if unknown or len(set(layout)) != len(layout):
-        raise ValueError(f"stimulus layout {list(layout)}: parts must be distinct and among "
-                         f"{', '.join(STIMULUS_PARTS)}")
+    if unknown or len(set(layout)) != len(layout) or layout[:2] != PAPER_STIMULUS:
+        raise ValueError(f"stimulus layout {list(layout)}: parts must be distinct, among "
+                         f"{', '.join(STIMULUS_PARTS)}, and begin with p_hit, v_hit")
     return layout
 
 

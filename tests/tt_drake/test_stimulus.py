@@ -36,7 +36,7 @@ def test_layouts_compose_in_order():
     assert stimulus_size(PAPER_STIMULUS) == 6 and stimulus_size(SPIN_STIMULUS) == 9
     with pytest.raises(ValueError, match="needs spin_hit"):
         compose_stimulus(SPIN_STIMULUS, p, v, None)
-    for bad in ([], ["p_hit", "p_hit"], ["q_hit"], "p_hit"):
+    for bad in ([], ["p_hit", "p_hit"], ["q_hit"], "p_hit", ["v_hit", "p_hit"], ["p_hit"]):
         with pytest.raises(ValueError, match="stimulus layout"):
             stimulus_layout(bad)
 
