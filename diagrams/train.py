@@ -1,7 +1,9 @@
 """``tt-drake train library|crkr``: the learned player's artefacts from a teacher dataset.
 
-    tt-drake train library --data DIR --out FILE [--primitives 300]
-    tt-drake train crkr    --data DIR --out FILE [--samples 2500]
+    tt-drake train library --data DIR --out FILE [--primitives 300] [--stimulus paper|spin]
+                           [--demonstrations planned|recorded] [--alpha-y 35]
+                           [--hitting-borrow 0.5] [--stage-borrow 0.5]
+    tt-drake train crkr    --data DIR --out FILE [--samples 2500] [--stimulus paper|spin]
 
 DIR is a dataset written by ``tt-drake collect`` (:func:`tt_drake.diagrams.collect.load_dataset`).
 Only the teacher's successful strokes (legal returns) are used.
@@ -18,6 +20,12 @@ rest to rest; follow-through: from (theta_hit, theta_dot_hit) to rest; awaiting:
 awaiting posture after the follow-through). In every primitive, the joints that barely moved in the
 demonstration take the normalised shape of the joint that moved most
 (:func:`tt_drake.imitation.borrow_weak_shapes`: DMP amplitude scaling is ill-conditioned there).
+
+The defaults are the paper profile's. The options (issue #14, docs/motor_primitives.md section
+10): the demonstrations are the executed plan or the arm's recorded joint state; the DMP gain
+alpha_y; the borrowing ratio of the hitting primitives and of the stage DMPs (0: none); the
+stimulus layout (:mod:`tt_drake.stimulus`: ``spin`` appends the teacher's predicted spin at
+impact, ``spin_hit``). All are recorded in the artefact.
 
 crkr (paper section II-C.2): the map from the stimulus s = (p_hit, v_hit) to the hitting
 configuration (theta_hit, theta_dot_hit), 14 outputs sharing one kernel (one model per output, as
