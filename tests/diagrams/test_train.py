@@ -194,3 +194,36 @@ def test_reproduce_profiles_pass_their_library_settings():
     assert hard["stimulus"] == SPIN_STIMULUS and hard["dmp"].alpha_y == 15.0
     assert hard["demonstrations"] == "recorded" and hard["hitting_borrow"] == 0.0
     assert stimulus_of(SimpleNamespace(stimulus=["p_hit", "v_hit"])) == PAPER_STIMULUS
+
+
+def test_spin_stimulus_is_exercised_in_the_serve_diagram(artefacts, tmp_path):
+    """A library and CrKR trained with the spin in their stimulus: in the serve diagram the
+    MoMP player's stroke stimulus is (p_hit, v_hit, spin_hit) as the predictor published them."""
+    from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
+
+    data, _, _ = artefacts
+    library, crkr = tmp_path / "lib.npz", tmp_path / "crkr.npz"
+    for artefact, out in (("library", library), ("crkr", crkr)):
+        assert main(["train", artefact, "--data", str(data), "--out", str(out), "--stimulus",
+                     "spin"]) == 0
+    scenario = load_scenario()
+    scenario.learned.library, scenario.learned.crkr = str(library), str(crkr)
+    diagram = ServeDiagram(scenario, "momp")
+    result = diagram.run(episode_seed(3, 0))
+    stroke = diagram.player.player_state(diagram.player.GetMyContextFromRoot(diagram.context)
+                                         ).stroke
+    np.testing.assert_allclose(result.stroke["stimulus"], stroke.stimulus, atol=1e-3)  # rounded
+    stimulus = stroke.stimulus
+    assert stimulus.shape == (9,) and not stroke.fallback
+    # The spin part came from the predictor's spin_hit (unconnected, the player would have
+    # refused to plan): a served ball spins after its bounce.
+    assert 1.0 < np.linalg.norm(stimulus[6:]) < 1000.0
+    # The stroke's mixture is the library's gating of that 9-D stimulus (Eq. 6).
+    lib = diagram.library
+    idx, nu = lib.active(stimulus)
+    np.testing.assert_array_equal(stroke.primitives, idx)
+    np.testing.assert_allclose(stroke.mixture, nu, atol=1e-12)
+    # The CrKR configuration was asked with the same stimulus.
+    model, _ = load_configuration_model(crkr)
+    q_hit, _, _ = model.predict(stimulus, variance=False)
+    np.testing.assert_allclose(stroke.q_hit, q_hit, atol=1e-12)
