@@ -8,6 +8,8 @@
     tt-drake collect --player analytical --serves N --seed S --out DIR [--workers W]
     tt-drake models  (rewrite the generated model files in models/)
     tt-drake train library|crkr --data DIR --out FILE [--primitives 300] [--samples 2500]
+                                [--stimulus paper|spin] [--demonstrations planned|recorded]
+                                [--alpha-y 35] [--hitting-borrow 0.5] [--stage-borrow 0.5]
     tt-drake serve --player momp [--library FILE --crkr FILE --predictor FILE]
                    [--configuration crkr|analytical] ...   (no FILE: the shipped artefacts)
     tt-drake serve --player crkr [--crkr FILE --predictor FILE] ...  (CrKR + teacher's quintics)
@@ -85,6 +87,23 @@ def _one_of(what: str, names: tuple[str, ...]) -> Callable[[str], str]:
                                              f"{', '.join(names)}")
         return text
     check.__name__ = what
+    return check
+
+
+def _bounded_float(low: float, high: float | None) -> Callable[[str], float]:
+    """An argparse ``type``: a number above ``low`` (strictly when ``high`` is None, else in
+    [low, high])."""
+    def check(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+        if high is None and not (value > low and value < float("inf")):
+            raise argparse.ArgumentTypeError(f"must be a finite number > {low:g}, got {text}")
+        if high is not None and not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"must lie in [{low:g}, {high:g}], got {text}")
+        return value
+    check.__name__ = "number"
     return check
 
 
@@ -216,6 +235,20 @@ def build_parser() -> argparse.ArgumentParser:
                        help="library: at most this many hitting primitives")
     learn.add_argument("--samples", type=_positive_int, default=2500,
                        help="crkr: at most this many teacher pairs")
+    learn.add_argument("--stimulus", type=_one_of("stimulus", ("paper", "spin")),
+                       choices=("paper", "spin"), default="paper",
+                       help="the gating network's / CrKR's stimulus: paper = (p_hit, v_hit), "
+                            "spin = with the predicted spin at impact (default: paper)")
+    learn.add_argument("--demonstrations", type=_one_of("demonstrations", ("planned", "recorded")),
+                       choices=("planned", "recorded"), default="planned",
+                       help="library: imitate the teacher's executed plan or the arm's recorded "
+                            "joint state (default: planned)")
+    learn.add_argument("--alpha-y", type=_bounded_float(0.0, None), default=35.0,
+                       help="library: the DMP gain alpha_y (Eq. 4; default 35)")
+    for name in ("hitting", "stage"):
+        learn.add_argument(f"--{name}-borrow", type=_bounded_float(0.0, 1.0), default=0.5,
+                           help=f"library: {name} DMP joints whose amplitude is below this "
+                                f"fraction of the largest take its shape (0: none; default 0.5)")
 
     train = command("train-predictor", help="train the GPR hitting-point predictor")
     train.add_argument("--serves", type=_serve_count, default=1000, help="training serves")
@@ -402,11 +435,16 @@ def _eval_predictor(args) -> None:
 
 def _train(args) -> None:
     from tt_drake.diagrams.train import format_train, train_crkr, train_library
+    from tt_drake.dmp import HittingDMP
+    from tt_drake.stimulus import STIMULI
 
+    stimulus = STIMULI[args.stimulus]
     if args.artefact == "library":
-        summary = train_library(args.data, args.out, args.primitives)
+        summary = train_library(args.data, args.out, args.primitives,
+                                HittingDMP(alpha_y=args.alpha_y), args.demonstrations, stimulus,
+                                args.hitting_borrow, args.stage_borrow)
     else:
-        summary = train_crkr(args.data, args.out, args.samples)
+        summary = train_crkr(args.data, args.out, args.samples, stimulus)
     print(format_train(summary))
 
 

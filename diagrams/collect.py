@@ -29,7 +29,10 @@ KIND = "teacher-demonstrations"
 CHUNK_SIZE = 25
 MANIFEST = "manifest.json"
 PER_SERVE = ("features", "true_hit", "stimulus", "q_hit", "qd_hit", "durations", "landing",
-             "hit", "returned", "on_target", "reward")
+             "hit", "returned", "on_target", "reward", "spin_hit")
+# Per-sample arrays (rows of TRAJECTORY_COLUMNS) with an owner array "<name>_serve": the executed
+# plan's stages, and the same stages as the arm's measured state (diagrams/demonstrations.py).
+TRAJECTORIES = ("trajectory", "recorded")
 TRAJECTORY_COLUMNS = ["t", "stage"] + [f"{name}{j}" for name in ("q", "qd", "qdd")
                                        for j in range(1, 8)]
 
@@ -77,10 +80,11 @@ def _pack(indices: list[int], seeds: list[int], results: list) -> dict:
     arrays = {"index": np.array(indices), "seed": np.array(seeds, dtype=np.uint64)}
     for key in PER_SERVE:
         arrays[key] = np.array([r.record[key] for r in results], dtype=float)
-    trajectories = [r.record["trajectory"] for r in results]
-    owners = [np.full(len(traj), i) for i, traj in zip(indices, trajectories, strict=True)]
-    arrays["trajectory"] = np.vstack(trajectories) if trajectories else np.zeros((0, 23))
-    arrays["trajectory_serve"] = np.concatenate(owners) if owners else np.zeros(0, int)
+    for name in TRAJECTORIES:
+        trajectories = [r.record[name] for r in results]
+        owners = [np.full(len(traj), i) for i, traj in zip(indices, trajectories, strict=True)]
+        arrays[name] = np.vstack(trajectories) if trajectories else np.zeros((0, 23))
+        arrays[f"{name}_serve"] = np.concatenate(owners) if owners else np.zeros(0, int)
     return arrays
 
 
@@ -138,6 +142,8 @@ def load_dataset(folder) -> dict:
         except ArtefactError as err:
             raise DatasetError(f"dataset {folder} is incomplete or damaged: {err}") from None
         parts.append(arrays)
-    data = {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
+    # Arrays every chunk holds (a dataset collected before an array existed lacks it).
+    keys = [key for key in parts[0] if all(key in p for p in parts)]
+    data = {key: np.concatenate([p[key] for p in parts]) for key in keys}
     data["manifest"] = manifest
     return data

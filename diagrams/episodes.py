@@ -214,12 +214,13 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
                                target_y=scenario.referee.target_y)
         configuration = HittingConfiguration("analytical", planner=StrokePlanner(config=config))
     configuration = builder.AddNamedSystem("hitting_configuration", configuration)
+    crkr = learned.get("crkr")
     player = builder.AddNamedSystem("momp_player", MoMPTrajectorySource(
         learned.get("library"), learned.get("stages"), arm=HittingIK(),
-        setpoint_lead=SETPOINT_LEAD))
-    for name in ("p_hit", "v_hit", "t_hit", "valid"):
+        setpoint_lead=SETPOINT_LEAD, stimulus=None if crkr is None else crkr.stimulus))
+    for name in ("p_hit", "v_hit", "t_hit", "valid", "spin_hit"):
         builder.Connect(predictor.GetOutputPort(name), configuration.GetInputPort(name))
-    for name in ("p_hit", "v_hit", "t_hit"):
+    for name in ("p_hit", "v_hit", "t_hit", "spin_hit"):
         builder.Connect(predictor.GetOutputPort(name), player.GetInputPort(name))
     for name in ("theta_hit", "theta_dot_hit"):
         builder.Connect(configuration.GetOutputPort(name), player.GetInputPort(name))

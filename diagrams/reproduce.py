@@ -267,11 +267,12 @@ def stage_predictor(run: Run) -> dict:
 
 
 def stage_library(run: Run) -> dict:
-    from tt_drake.diagrams.train import train_library
+    from tt_drake.diagrams.train import library_options, train_library
 
     c = run.config
     out = run.folder("library") / "library.npz"
-    summary = train_library(run.root / "teacher" / "data", out, c.primitives)
+    summary = train_library(run.root / "teacher" / "data", out, c.primitives,
+                            **library_options(c))
     return {"library": run.rel(out), "primitives": summary["primitives"],
             "command": f"tt-drake train library --data DIR/teacher/data --primitives "
                        f"{c.primitives}"}
@@ -280,7 +281,7 @@ def stage_library(run: Run) -> dict:
 def stage_crkr(run: Run) -> dict:
     """Policy iteration of the CrKR hitting configuration (section III-B.2)."""
     from tt_drake.constants import PLANES
-    from tt_drake.diagrams.train import fit_crkr, train_crkr
+    from tt_drake.diagrams.train import fit_crkr, stimulus_of, train_crkr
 
     c = run.config
     folder = run.folder("crkr")
@@ -291,12 +292,14 @@ def stage_crkr(run: Run) -> dict:
         model = folder / f"crkr_{k}.npz"
         if not model.exists():
             if k == 1:
-                train_crkr(run.root / "teacher" / "data", model, c.crkr_samples)
+                train_crkr(run.root / "teacher" / "data", model, c.crkr_samples,
+                           stimulus_of(c))
             else:
                 pairs = _successful_pairs(iterations[-1]["episodes"], c.crkr_samples)
                 fit_crkr(*pairs, model, {"scenario": run.scenario().name,
                                          "hitting_y": PLANES.hitting_y,
-                                         "policy_iteration": k, "source": f"crkr_{k - 1}"})
+                                         "policy_iteration": k, "source": f"crkr_{k - 1}"},
+                         stimulus_of(c))
         episodes = run.rollouts(folder / f"iteration_{k}", run.scenario(crkr=str(model),
                                 predictor=predictor), "crkr", c.crkr_serves, c.crkr_seed + k,
                                 desc=f"CrKR iteration {k}")

@@ -9,10 +9,15 @@ Two sources, chosen at construction:
   ``tt-drake train crkr`` on the teacher's successful strokes;
 - ``"analytical"``: the teacher's aim + racket law + IK
   (:meth:`tt_drake.systems.analytical_player.StrokePlanner.stroke`) on the same predicted stimulus.
-  The predictor does not estimate spin, so the ball is taken as spinless here (the teacher itself
-  uses the spin its physical model gives the bounce; this is a documented difference).
+  The ball is taken as spinless here (the teacher itself uses the spin its physical model gives
+  the bounce; this is a documented difference, kept so that the paper profile's row is unchanged,
+  although the predictor's ``spin_hit`` would now give it).
 
-Ports: inputs ``p_hit`` (3), ``v_hit`` (3), ``t_hit`` (1, absolute) and ``valid`` (1) from
+The CrKR stimulus is the model's layout (:mod:`tt_drake.stimulus`, recorded in its artefact):
+(p_hit, v_hit), or with the predicted spin at impact ``spin_hit`` appended.
+
+Ports: inputs ``p_hit`` (3), ``v_hit`` (3), ``t_hit`` (1, absolute), ``valid`` (1) and
+``spin_hit`` (3, read only by a CrKR model whose stimulus has the spin) from
 :class:`tt_drake.systems.hitting_point_predictor.HittingPointPredictor`; outputs ``theta_hit``
 (7), ``theta_dot_hit`` (7) and ``valid`` (1). It has no state: the outputs are a function of the
 inputs, cached by Drake until the predictor publishes another prediction, and solved once per
@@ -24,6 +29,7 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 from tt_drake.learned_player import ConfigurationModel
+from tt_drake.stimulus import PAPER_STIMULUS, compose_stimulus
 
 SOURCES = ("crkr", "analytical")
 _NO_ANSWER = np.zeros(15)
@@ -47,6 +53,9 @@ class HittingConfiguration(LeafSystem):
         self._v = self.DeclareVectorInputPort("v_hit", 3)
         self._t = self.DeclareVectorInputPort("t_hit", 1)
         self._valid = self.DeclareVectorInputPort("valid", 1)
+        self._spin = self.DeclareVectorInputPort("spin_hit", 3)
+        self._layout = getattr(model, "stimulus", PAPER_STIMULUS)
+        self._uses_spin = source == "crkr" and "spin_hit" in self._layout
         self._memo: tuple = (None, _NO_ANSWER)  # (stimulus, answer): a pure function's cache
         deps = {self.all_input_ports_ticket()}
         for name, lo, hi in (("theta_hit", 0, 7), ("theta_dot_hit", 7, 14), ("valid", 14, 15)):
@@ -59,10 +68,11 @@ class HittingConfiguration(LeafSystem):
 
         return calc
 
-    def solve(self, p_hit, v_hit, t_hit):
+    def solve(self, p_hit, v_hit, t_hit, spin_hit=None):
         """(theta_hit, theta_dot_hit) or None if the source has no answer (IK failed)."""
         if self.source == "crkr":
-            q, qd, _ = self.model.predict(np.r_[p_hit, v_hit], variance=False)
+            s = compose_stimulus(self._layout, p_hit, v_hit, spin_hit)
+            q, qd, _ = self.model.predict(s, variance=False)
             return q, qd
         stroke = self.planner.stroke(p_hit, v_hit, t_hit, np.zeros(3), None)
         return None if stroke is None else (stroke.q_hit, stroke.qd_hit)
@@ -72,9 +82,12 @@ class HittingConfiguration(LeafSystem):
         if self._valid.Eval(context)[0] < 0.5:
             return _NO_ANSWER
         stimulus = (*self._p.Eval(context), *self._v.Eval(context), self._t.Eval(context)[0])
+        if self._uses_spin:
+            stimulus += tuple(self._spin.Eval(context)) if self._spin.HasValue(context) else ()
         if stimulus == self._memo[0]:
             return self._memo[1]
-        solved = self.solve(np.array(stimulus[:3]), np.array(stimulus[3:6]), stimulus[6])
+        solved = self.solve(np.array(stimulus[:3]), np.array(stimulus[3:6]), stimulus[6],
+                            np.array(stimulus[7:10]) if len(stimulus) == 10 else None)
         answer = _NO_ANSWER if solved is None else np.r_[solved[0], solved[1], 1.0]
         self._memo = (stimulus, answer)
         return answer

@@ -27,13 +27,17 @@ Ports:
 - inputs ``state`` (6) and ``status`` (2: valid, t_state) from ``BallFlightEstimator``, and
   ``spin`` (3, rad/s) from it too; an unconnected ``spin`` is taken as zero (the physical
   predictions then assume a spinless ball, as before spin was estimated);
-- outputs ``p_hit`` (3), ``v_hit`` (3), ``t_hit`` (1), ``valid`` (1) and ``final`` (1).
+- outputs ``p_hit`` (3), ``v_hit`` (3), ``t_hit`` (1), ``valid`` (1), ``final`` (1) and
+  ``spin_hit`` (3, rad/s): the ball's spin at the hitting plane as the ball model carries the
+  estimator's spin there through the bounces ahead (the teacher's stroke assumes the same; a
+  GPR prediction takes it from the physical model started at the fourth observation). It is the
+  spin part of a learned player's stimulus when its artefacts say so (:mod:`tt_drake.stimulus`).
   ``t_hit`` is an **absolute** simulation time: the capture time of the state predicted from
   plus the predicted time to go (the regressors learn the time to go, which does not depend on
   the episode's clock).
 
 Discrete state: ``[n_collected, last_t, observations (4 x 6), p_hit (3), v_hit (3), t_hit,
-valid, final]``; outputs copy slices of it.
+valid, final, spin_hit (3)]``; outputs copy slices of it.
 """
 
 import math
@@ -67,7 +71,7 @@ class HittingPointPredictor(LeafSystem):
         self._state = self.DeclareVectorInputPort("state", 6)
         self._spin = self.DeclareVectorInputPort("spin", 3)
         self._status = self.DeclareVectorInputPort("status", 2)
-        initial = np.zeros(_OUT + 9)
+        initial = np.zeros(_OUT + 12)
         initial[1] = -math.inf
         self._xd = self.DeclareDiscreteState(initial)
         self.DeclarePeriodicDiscreteUpdateEvent(1.0 / rate, 0.0, self._update)
@@ -82,6 +86,11 @@ class HittingPointPredictor(LeafSystem):
                                      prerequisites_of_calc=deps)
         self.DeclareVectorOutputPort("final", 1, self._calc(_OUT + 8, _OUT + 9),
                                      prerequisites_of_calc=deps)
+        self.DeclareVectorOutputPort("spin_hit", 3, self._calc(_OUT + 9, _OUT + 12),
+                                     prerequisites_of_calc=deps)
+        # The ball model that carries the spin to the plane when a GPR predicts.
+        self._spin_model = (physical or early or refresh or PhysicalPredictor()).model
+        self._plane_y = (physical or early or refresh or PhysicalPredictor()).plane_y
 
     def _calc(self, lo, hi):
         def calc(context, output):
@@ -97,6 +106,17 @@ class HittingPointPredictor(LeafSystem):
             return self.gpr.predict(observations.reshape(-1))
         return self.physical.predict(_with_spin(observations[-1], spin))
 
+    def _final(self, observations: np.ndarray, spin) -> np.ndarray | None:
+        """:meth:`predict` and the spin at the plane: (p_hit, v_hit, time to go, spin_hit)."""
+        start = _with_spin(observations[-1], spin)
+        if self.gpr is None:
+            return _crossing(self.physical, start)
+        pred = self.gpr.predict(observations.reshape(-1))
+        if pred is None:
+            return None
+        hit = self._spin_model.predict_plane(start, self._plane_y)
+        return np.r_[pred[:7], start[6:9] if hit is None else hit.spin]
+
     def _spin_value(self, context) -> np.ndarray | None:
         return self._spin.Eval(context) if self._spin.HasValue(context) else None
 
@@ -108,7 +128,7 @@ class HittingPointPredictor(LeafSystem):
         hit = self.refresh.model.predict_plane(_with_spin(s, spin), self.refresh.plane_y)
         if hit is None or hit.bounces:
             return None  # the robot-side bounce is still ahead
-        pred = np.concatenate([hit.position, hit.velocity, [hit.t]])
+        pred = np.concatenate([hit.position, hit.velocity, [hit.t], hit.spin])
         moved = (float(np.linalg.norm(pred[:3] - x[_OUT:_OUT + 3])) > self.refresh_tolerance[0]
                  or abs(t + pred[6] - x[_OUT + 6]) > self.refresh_tolerance[1])
         return pred if moved else None
@@ -128,6 +148,7 @@ class HittingPointPredictor(LeafSystem):
             if pred is not None:
                 new[_OUT:_OUT + 6] = pred[:6]
                 new[_OUT + 6] = t + pred[6]
+                new[_OUT + 9:_OUT + 12] = pred[7:10]
             discrete_state.set_value(self._xd, new)
             return
         new = x.copy()
@@ -143,19 +164,20 @@ class HittingPointPredictor(LeafSystem):
         new[0] = n
         pred = None
         if n == N_OBSERVATIONS:
-            pred = self.predict(new[_OBS:_OUT].reshape(N_OBSERVATIONS, 6), spin)
+            pred = self._final(new[_OBS:_OUT].reshape(N_OBSERVATIONS, 6), spin)
             if pred is None:
                 new[0] = 0
             else:
                 new[_OUT + 8] = 1.0
         if pred is None and self.early is not None and s[4] < 0.0:
-            pred = self.early.predict(_with_spin(s, spin))
+            pred = _crossing(self.early, _with_spin(s, spin))
             if pred is not None and x[_OUT + 7] == 1.0 and not self._moved(x, pred, t):
                 pred = None
         if pred is not None:
             new[_OUT:_OUT + 6] = pred[:6]
             new[_OUT + 6] = t + pred[6]
             new[_OUT + 7] = 1.0
+            new[_OUT + 9:_OUT + 12] = pred[7:10]
         discrete_state.set_value(self._xd, new)
 
     def _moved(self, x, pred, t: float) -> bool:
@@ -167,3 +189,12 @@ class HittingPointPredictor(LeafSystem):
 def _with_spin(state6, spin) -> np.ndarray:
     """(p, v) and the spin (zero if None) as the ball model's 9-state."""
     return np.r_[np.asarray(state6, dtype=float), np.zeros(3) if spin is None else spin]
+
+
+def _crossing(physical: PhysicalPredictor, state9) -> np.ndarray | None:
+    """``physical``'s prediction (p_hit, v_hit, time to go) with the spin at the plane
+    appended; None if the model's ball never reaches the plane."""
+    hit = physical.model.predict_plane(state9, physical.plane_y)
+    if hit is None:
+        return None
+    return np.concatenate([hit.position, hit.velocity, [hit.t], hit.spin])

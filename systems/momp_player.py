@@ -30,10 +30,14 @@ the teacher's quintic stages to the hitting configuration: the learned configura
 Each stage is sampled once per plan at 500 Hz into one quintic per interval
 (:class:`tt_drake.learned_player.SampledSegment`); the output ports evaluate it in O(1).
 
-Ports: inputs ``p_hit`` (3), ``v_hit`` (3), ``t_hit`` (1, absolute) from the
-HittingPointPredictor, ``theta_hit`` (7), ``theta_dot_hit`` (7) and ``configuration_valid`` (1)
-from HittingConfiguration; outputs ``desired_state`` (14: q, q_dot) and ``desired_acceleration``
-(7) for the InverseDynamicsController, ``stage`` (1: index into :data:`tt_drake.stages.STAGES`),
+The stimulus is the library's layout (:mod:`tt_drake.stimulus`, recorded in its artefact): the
+paper's x = (p_hit, v_hit), or with the predicted spin at impact appended (``spin_hit``).
+
+Ports: inputs ``p_hit`` (3), ``v_hit`` (3), ``t_hit`` (1, absolute) and ``spin_hit`` (3, needed
+only by a stimulus with spin) from the HittingPointPredictor, ``theta_hit`` (7),
+``theta_dot_hit`` (7) and ``configuration_valid`` (1) from HittingConfiguration; outputs
+``desired_state`` (14: q, q_dot) and ``desired_acceleration`` (7) for the
+InverseDynamicsController, ``stage`` (1: index into :data:`tt_drake.stages.STAGES`),
 ``predicted_hit`` (4: p_hit and a valid flag, for drawing) and ``stroke`` (the
 :class:`tt_drake.learned_player.MoMPStroke`: which primitives carried the hitting stage, with their
 mixture weights).
@@ -58,6 +62,7 @@ from tt_drake.stages import (
     plan_stroke,
     within_effort,
 )
+from tt_drake.stimulus import PAPER_STIMULUS, compose_stimulus, stimulus_layout, stimulus_size
 from tt_drake.systems.immutable import Immutable
 from tt_drake.systems.stage_player import StagePlanPlayer
 
@@ -107,8 +112,15 @@ def joint_limits() -> JointLimits:
 class MoMPTrajectorySource(StagePlanPlayer):
     def __init__(self, library: MotorPrimitiveLibrary | None, stages: dict | None,
                  config: MoMPConfig | None = None, rate: float = wp.PLANNING_RATE, q_await=None,
-                 arm=None, setpoint_lead: float = 0.0):
+                 arm=None, setpoint_lead: float = 0.0, stimulus=None):
         super().__init__(setpoint_lead)
+        # The stimulus layout: the library's if it names one; else ``stimulus`` (for the crkr
+        # player the configuration model's, so that its strokes can train it), else the paper's.
+        named = None if library is None else library.stimulus_layout
+        self.stimulus = stimulus_layout(named or stimulus or PAPER_STIMULUS)
+        if library is not None and stimulus_size(self.stimulus) != library.stimuli.shape[1]:
+            raise ValueError(f"stimulus layout {', '.join(self.stimulus)} for a library whose "
+                             f"stimuli have {library.stimuli.shape[1]} values")
         self.library, self.stages, self.arm = library, stages, arm
         self.config = config or MoMPConfig()
         self.limits = joint_limits()
@@ -121,6 +133,7 @@ class MoMPTrajectorySource(StagePlanPlayer):
         self._q_hit = self.DeclareVectorInputPort("theta_hit", 7)
         self._qd_hit = self.DeclareVectorInputPort("theta_dot_hit", 7)
         self._valid = self.DeclareVectorInputPort("configuration_valid", 1)
+        self._spin = self.DeclareVectorInputPort("spin_hit", 3)
         self._index = self.DeclareAbstractState(AbstractValue.Make(_State(self.awaiting_plan())))
         # On the planning ticks: a new prediction is acted on at the first tick after it.
         self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, self._update)
@@ -169,7 +182,8 @@ class MoMPTrajectorySource(StagePlanPlayer):
             return
         if not self._needs_replan(old.stroke, p_hit, t_hit, q_hit, qd_hit):
             return
-        x = np.r_[p_hit, v_hit]
+        spin = self._spin.Eval(context) if self._spin.HasValue(context) else None
+        x = compose_stimulus(self.stimulus, p_hit, v_hit, spin)
         preparing = plan.stage_at(now) == PREPARATION
         new, idx, nu = self._plan_primitives(now, plan, x, t_hit, q_hit, qd_hit, preparing)
         fallback = new is None and self.library is not None

@@ -53,6 +53,7 @@ from tt_drake.stages import (
     follow_through_time,
     quintic_coefficients,
 )
+from tt_drake.stimulus import PAPER_STIMULUS, stimulus_layout, stimulus_size
 
 __all__ = ["SampledSegment", "StagePrimitive", "blend_start_acceleration", "MoMPStroke",
            "plan_momp_stroke", "BLEND_TIME", "LearnedArtefactError", "save_player_library",
@@ -300,9 +301,20 @@ def _check_meta(path, meta: dict, scenario: str | None, hitting_y: float | None)
                                    f"{meta.get('hitting_y')}, not {hitting_y}")
 
 
+def _stimulus_from_meta(meta: dict, size: int) -> tuple[str, ...]:
+    """The stimulus layout an artefact records (:mod:`tt_drake.stimulus`; none recorded: the
+    paper's 6-D ``p_hit, v_hit``), checked against the ``size`` of its stored stimuli."""
+    layout = stimulus_layout(meta.get("stimulus", list(PAPER_STIMULUS)))
+    if stimulus_size(layout) != size:
+        raise ValueError(f"its stimulus layout {', '.join(layout)} has {stimulus_size(layout)} "
+                         f"values, its stimuli {size}")
+    return layout
+
+
 def save_player_library(path, library: MotorPrimitiveLibrary, stages: dict, meta: dict) -> None:
     """The hitting library (Eq. 6) and the three stage DMPs in one artefact, with ``meta``
-    (scenario name, hitting-plane y, training data) and a format version."""
+    (scenario name, hitting-plane y, training data), the stimulus layout (the library's, else the
+    paper's 6-D one) and a format version."""
     arrays = {"weights": library.weights, "amplitude": library.amplitude,
               "stimuli": library.stimuli, "bandwidths": library.bandwidths,
               "gamma": library.gamma, "s": library.s, "n": library.n}
@@ -311,7 +323,8 @@ def save_player_library(path, library: MotorPrimitiveLibrary, stages: dict, meta
         arrays[f"{key}_amplitude"] = stages[stage].amplitude
         arrays[f"{key}_tau"] = np.array(stages[stage].tau)
     doc = {**meta, "learned_format_version": LEARNED_FORMAT_VERSION, "dmp": library.dmp.to_dict(),
-           "responsibility": library.responsibility.to_dict(), "min_weight": library.min_weight}
+           "responsibility": library.responsibility.to_dict(), "min_weight": library.min_weight,
+           "stimulus": list(library.stimulus_layout or PAPER_STIMULUS)}
     save_artefact(path, LIBRARY_FILE_KIND, arrays, doc)
 
 
@@ -332,7 +345,8 @@ def load_player_library(path, scenario: str | None = None, hitting_y: float | No
             dmp, arrays["weights"], arrays["amplitude"], arrays["stimuli"], arrays["bandwidths"],
             gamma=arrays["gamma"], s=arrays["s"], n=arrays["n"],
             responsibility=ResponsibilityParams(**meta["responsibility"]),
-            min_weight=float(meta["min_weight"]))
+            min_weight=float(meta["min_weight"]),
+            stimulus_layout=_stimulus_from_meta(meta, arrays["stimuli"].shape[-1]))
         stages = {stage: StagePrimitive(arrays[f"{key}_weights"], arrays[f"{key}_amplitude"],
                                         float(arrays[f"{key}_tau"]))
                   for stage, key in _STAGE_KEYS.items()}
@@ -358,17 +372,28 @@ class ConfigurationModel:
 
     crkr: CrKR
     y_mean: np.ndarray
+    # The parts of s (tt_drake.stimulus); the paper's (p_hit, v_hit) unless trained otherwise.
+    stimulus: tuple[str, ...] = PAPER_STIMULUS
 
     @classmethod
-    def fit(cls, x, y, costs, bandwidths, lam: float) -> ConfigurationModel:
+    def fit(cls, x, y, costs, bandwidths, lam: float, stimulus=PAPER_STIMULUS
+            ) -> ConfigurationModel:
         y = np.asarray(y, dtype=float)
         mean = y.mean(axis=0)
-        return cls(CrKR(bandwidths, lam).fit(x, y - mean, costs), mean)
+        layout = stimulus_layout(stimulus)
+        if np.shape(x)[-1] != stimulus_size(layout):
+            raise ValueError(f"stimuli of {np.shape(x)[-1]} values for the layout "
+                             f"{', '.join(layout)} ({stimulus_size(layout)})")
+        return cls(CrKR(bandwidths, lam).fit(x, y - mean, costs), mean, layout)
 
     def predict(self, s, variance: bool = True) -> tuple[np.ndarray, np.ndarray, float]:
-        """(theta_hit (7), theta_dot_hit (7), variance sigma^2(s)) for one stimulus (6). Without
-        ``variance`` (NaN then) only the mean is computed: O(n) instead of O(n^2)."""
+        """(theta_hit (7), theta_dot_hit (7), variance sigma^2(s)) for one stimulus (of the
+        model's layout; ValueError for another size). Without ``variance`` (NaN then) only the
+        mean is computed: O(n) instead of O(n^2)."""
         x = np.asarray(s, dtype=float).reshape(1, -1)
+        if x.shape[1] != self.crkr.x.shape[1]:
+            raise ValueError(f"stimulus of {x.shape[1]} values for a CrKR model of "
+                             f"{self.crkr.x.shape[1]} ({', '.join(self.stimulus)})")
         if variance:
             mean, var = self.crkr.predict(x)
             var = float(var[0])
@@ -381,13 +406,13 @@ class ConfigurationModel:
 def save_configuration_model(path, model: ConfigurationModel, meta: dict) -> None:
     """The CrKR map stimulus -> (theta_hit, theta_dot_hit) with ``meta`` (scenario, hitting-plane
     y, comfort posture, inputs) and a format version."""
-    y_mean, model = model.y_mean, model.crkr
+    y_mean, layout, model = model.y_mean, model.stimulus, model.crkr
     # The training pairs only (O(n) numbers): the O(n^2) Cholesky factor is recomputed on load
     # (about a second for 2,500 pairs), which keeps the shipped model small.
     arrays = {"x": model.x, "y": model.y, "costs": model.costs, "bandwidths": model.bandwidths,
               "y_mean": y_mean}
     doc = {**meta, "learned_format_version": LEARNED_FORMAT_VERSION, "lam": model.lam,
-           "n_samples": model.n_samples}
+           "n_samples": model.n_samples, "stimulus": list(layout)}
     save_artefact(path, CRKR_FILE_KIND, arrays, doc)
 
 
@@ -405,7 +430,8 @@ def load_configuration_model(path, scenario: str | None = None, hitting_y: float
         x, y, c = model._check(arrays["x"], arrays["y"], arrays["costs"])
         if y.shape[1] != 14 or arrays["y_mean"].shape != (14,):
             raise ValueError("expected 14 outputs (theta_hit, theta_dot_hit)")
+        layout = _stimulus_from_meta(meta, x.shape[1])
         model.fit(x, y, c)
     except (KeyError, TypeError, ValueError, np.linalg.LinAlgError) as exc:
         raise LearnedArtefactError(f"{path}: inconsistent CrKR model ({exc})") from None
-    return ConfigurationModel(model, arrays["y_mean"]), meta
+    return ConfigurationModel(model, arrays["y_mean"], layout), meta

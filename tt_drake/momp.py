@@ -37,6 +37,7 @@ from tt_drake.artefacts import ArtefactError, load_artefact, save_artefact
 from tt_drake.dmp import HittingDMP, Trajectory
 from tt_drake.imitation import Demonstration, imitate
 from tt_drake.responsibility import ResponsibilityParams, responsibility_update
+from tt_drake.stimulus import stimulus_layout, stimulus_size
 
 __all__ = [
     "gating_log_kernel",
@@ -125,7 +126,8 @@ class MotorPrimitiveLibrary:
     ``weights (P, D, B)``, ``amplitude (P, D)`` (demonstrated ``theta_T - theta_1``, ``a = 1 /
     amplitude``), ``stimuli (P, S)`` (``x_i``), ``bandwidths (S,)`` (``h_d``), ``gamma (P,)``
     (responsibilities, initialised to 1), ``s (P,)`` and ``n (P,)`` (success and usage counts of
-    Algorithm 3).
+    Algorithm 3). ``stimulus_layout`` optionally names the parts of ``x`` (:mod:`tt_drake.stimulus`,
+    e.g. ``("p_hit", "v_hit")``); ``None`` leaves it unnamed.
     """
 
     dmp: HittingDMP
@@ -138,6 +140,7 @@ class MotorPrimitiveLibrary:
     n: FloatArray | None = None
     responsibility: ResponsibilityParams = field(default_factory=ResponsibilityParams)
     min_weight: float = 1e-6
+    stimulus_layout: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
         self.weights = np.array(self.weights, dtype=float)
@@ -160,6 +163,12 @@ class MotorPrimitiveLibrary:
         self.n = np.zeros(p) if self.n is None else _as_1d(self.n, p, "n").copy()
         if not 0.0 <= self.min_weight < 1.0:
             raise ValueError("min_weight must lie in [0, 1)")
+        if self.stimulus_layout is not None:
+            self.stimulus_layout = stimulus_layout(self.stimulus_layout)
+            if stimulus_size(self.stimulus_layout) != self.stimuli.shape[1]:
+                raise ValueError(f"stimulus layout {list(self.stimulus_layout)} has "
+                                 f"{stimulus_size(self.stimulus_layout)} values, the stimuli "
+                                 f"{self.stimuli.shape[1]}")
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -205,8 +214,14 @@ class MotorPrimitiveLibrary:
         """Normalised gating weights ``nu_i(x)`` of Eq. 6 for every primitive, shape ``(P,)``.
 
         ``use_gamma=False`` gives the kernel-only weights ``k(x - x_i) / sum_l k(x - x_l)`` of
-        Eq. 9 (PoWER).
+        Eq. 9 (PoWER). ``x`` must have the library's stimulus size ``S`` (ValueError otherwise).
         """
+        x = np.asarray(x, dtype=float)
+        if x.shape != self.stimuli.shape[1:]:
+            raise ValueError(f"stimulus of shape {x.shape} for a library whose stimuli have "
+                             f"{self.stimuli.shape[1]} values"
+                             + ("" if self.stimulus_layout is None
+                                else f" ({', '.join(self.stimulus_layout)})"))
         return gating_weights(x, self.stimuli, self.bandwidths, self.gamma if use_gamma else None)
 
     def active(self, x: ArrayLike) -> tuple[NDArray[np.intp], FloatArray]:
@@ -337,6 +352,8 @@ class MotorPrimitiveLibrary:
                 "min_weight": self.min_weight,
                 "n_primitives": self.n_primitives,
                 "n_dof": self.n_dof,
+                **({} if self.stimulus_layout is None
+                   else {"stimulus": list(self.stimulus_layout)}),
             },
         )
 
@@ -357,6 +374,7 @@ class MotorPrimitiveLibrary:
                 n=arrays["n"],
                 responsibility=ResponsibilityParams(**meta["responsibility"]),
                 min_weight=float(meta["min_weight"]),
+                stimulus_layout=meta.get("stimulus"),
             )
         except (KeyError, TypeError, ValueError) as exc:
             raise ArtefactError(f"{path}: inconsistent library contents ({exc})") from exc

@@ -123,3 +123,107 @@ def test_only_the_momp_player_acts_on_early_predictions(artefacts):
     final = predictor.GetOutputPort("p_hit").Eval(predictor.GetMyContextFromRoot(diagram.context))
     assert result.stroke["replans"] == 1
     np.testing.assert_allclose(result.stroke["stimulus"][:3], final, atol=1e-5)
+
+
+def test_recorded_spin_library_and_crkr_from_the_cli(artefacts, tmp_path, capsys):
+    """train library with the recorded demonstrations, a stimulus with spin, other DMP gains
+    and no borrowing: all recorded in the artefact; the stimuli's spin is the teacher's."""
+    from tt_drake.diagrams.collect import load_dataset
+    from tt_drake.stimulus import SPIN_STIMULUS
+
+    data, _, _ = artefacts
+    dataset = load_dataset(data)
+    out, crkr = tmp_path / "lib.npz", tmp_path / "crkr.npz"
+    assert main(["train", "library", "--data", str(data), "--out", str(out), "--demonstrations",
+                 "recorded", "--stimulus", "spin", "--alpha-y", "15", "--hitting-borrow", "0",
+                 "--stage-borrow", "0.5"]) == 0
+    library, _, meta = load_player_library(out, "default", PLANES.hitting_y)
+    assert library.stimulus_layout == SPIN_STIMULUS and library.dmp.alpha_y == 15.0
+    assert meta["demonstrations"] == "recorded" and meta["borrowed_dofs"] == 0
+    ok = np.flatnonzero(dataset["returned"] > 0.5)
+    np.testing.assert_array_equal(library.stimuli[:, 6:], dataset["spin_hit"][ok])
+    assert main(["train", "crkr", "--data", str(data), "--out", str(crkr), "--stimulus",
+                 "spin"]) == 0
+    model, meta = load_configuration_model(crkr, "default", PLANES.hitting_y)
+    assert model.stimulus == SPIN_STIMULUS and meta["inputs"] == "p_hit, v_hit, spin_hit (9)"
+    capsys.readouterr()
+    for bad in (["--alpha-y", "0"], ["--hitting-borrow", "1.5"], ["--demonstrations", "x"]):
+        with pytest.raises(SystemExit) as exit_:
+            main(["train", "library", "--data", str(data), "--out", str(tmp_path / "x.npz"),
+                  *bad])
+        assert exit_.value.code == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "error" in err
+    assert not (tmp_path / "x.npz").exists()
+
+
+def test_a_dataset_without_recorded_states_is_refused_for_recorded_demonstrations(
+        artefacts, tmp_path, capsys):
+    from tt_drake.artefacts import load_artefact, save_artefact
+    from tt_drake.diagrams.collect import KIND, PER_SERVE
+
+    data, _, _ = artefacts
+    old = tmp_path / "old"
+    old.mkdir()
+    for f in data.iterdir():  # as collected before the arm's state was recorded
+        if f.suffix == ".npz":
+            arrays, meta = load_artefact(f, KIND, allow_nonfinite=PER_SERVE)
+            arrays = {k: v for k, v in arrays.items()
+                      if k not in ("recorded", "recorded_serve", "spin_hit")}
+            save_artefact(old / f.name, KIND, arrays, meta)
+        else:
+            (old / f.name).write_bytes(f.read_bytes())
+    assert main(["train", "library", "--data", str(old), "--out", str(tmp_path / "a.npz")]) == 0
+    for option in (["--demonstrations", "recorded"], ["--stimulus", "spin"]):
+        assert main(["train", "library", "--data", str(old), "--out", str(tmp_path / "b.npz"),
+                     *option]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "collect it again" in err
+
+
+def test_reproduce_profiles_pass_their_library_settings():
+    """A profile's config without the settings trains the paper's library (train_library's
+    defaults); the hard profile's settings arrive as train_library's arguments."""
+    from types import SimpleNamespace
+
+    from tt_drake.diagrams.train import HARD_PROFILE, library_options, stimulus_of
+    from tt_drake.stimulus import PAPER_STIMULUS, SPIN_STIMULUS
+
+    assert library_options(SimpleNamespace(primitives=300)) == {"stimulus": PAPER_STIMULUS}
+    hard = library_options(SimpleNamespace(**HARD_PROFILE))
+    assert hard["stimulus"] == SPIN_STIMULUS and hard["dmp"].alpha_y == 15.0
+    assert hard["demonstrations"] == "recorded" and hard["hitting_borrow"] == 0.0
+    assert stimulus_of(SimpleNamespace(stimulus=["p_hit", "v_hit"])) == PAPER_STIMULUS
+
+
+def test_spin_stimulus_is_exercised_in_the_serve_diagram(artefacts, tmp_path):
+    """A library and CrKR trained with the spin in their stimulus: in the serve diagram the
+    MoMP player's stroke stimulus is (p_hit, v_hit, spin_hit) as the predictor published them."""
+    from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
+
+    data, _, _ = artefacts
+    library, crkr = tmp_path / "lib.npz", tmp_path / "crkr.npz"
+    for artefact, out in (("library", library), ("crkr", crkr)):
+        assert main(["train", artefact, "--data", str(data), "--out", str(out), "--stimulus",
+                     "spin"]) == 0
+    scenario = load_scenario()
+    scenario.learned.library, scenario.learned.crkr = str(library), str(crkr)
+    diagram = ServeDiagram(scenario, "momp")
+    result = diagram.run(episode_seed(3, 0))
+    stroke = diagram.player.player_state(diagram.player.GetMyContextFromRoot(diagram.context)
+                                         ).stroke
+    np.testing.assert_allclose(result.stroke["stimulus"], stroke.stimulus, atol=1e-3)  # rounded
+    stimulus = stroke.stimulus
+    assert stimulus.shape == (9,) and not stroke.fallback
+    # The spin part came from the predictor's spin_hit (unconnected, the player would have
+    # refused to plan): a served ball spins after its bounce.
+    assert 1.0 < np.linalg.norm(stimulus[6:]) < 1000.0
+    # The stroke's mixture is the library's gating of that 9-D stimulus (Eq. 6).
+    lib = diagram.library
+    idx, nu = lib.active(stimulus)
+    np.testing.assert_array_equal(stroke.primitives, idx)
+    np.testing.assert_allclose(stroke.mixture, nu, atol=1e-12)
+    # The CrKR configuration was asked with the same stimulus.
+    model, _ = load_configuration_model(crkr)
+    q_hit, _, _ = model.predict(stimulus, variance=False)
+    np.testing.assert_allclose(stroke.q_hit, q_hit, atol=1e-12)
