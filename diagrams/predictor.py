@@ -140,12 +140,13 @@ def _worker_chunk(args) -> dict:
 
 def parse_distributions(text: str | None) -> list[str]:
     """The serve distributions of a comma-separated list (default: ``default``); ServeError
-    naming an unknown one; each distribution once."""
-    from tt_drake.serves import ServeError, parse_distribution
+    naming an unknown one or an unusable data file (a split asked of a file without ids); each
+    distribution once."""
+    from tt_drake.serves import ServeError, ServeSampler
 
     names = [n.strip() for n in (text or "default").split(",")]
     for name in names:
-        parse_distribution(name)
+        ServeSampler(name).check()
     if len(set(names)) != len(names):
         raise ServeError(f"a serve distribution is listed twice: {text!r}")
     return names

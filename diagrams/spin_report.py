@@ -290,7 +290,7 @@ def main(argv=None) -> int:
     from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
     from tt_drake.diagrams.scenario import load_scenario, validate
     from tt_drake.outputs import check_writable, write_json_atomic
-    from tt_drake.serves import ServeError
+    from tt_drake.serves import ServeError, ServeSampler
 
     p = argparse.ArgumentParser(prog="python -m tt_drake.diagrams.spin_report")
     p.add_argument("--serves", type=int, required=True)
@@ -319,6 +319,9 @@ def main(argv=None) -> int:
             scenario.launcher.distribution = args.distribution
             validate(scenario, "--distribution")
         scenario.launcher.run_seed = args.seed  # the serves of ``tt-drake serve --seed S``
+        c = scenario.launcher
+        ServeSampler(c.distribution, c.spin_max, c.real_serves or None,
+                     rally_path=c.rallies or None).check()  # a split of a file without ids
         if args.player == "momp" and not scenario.learned.library:
             from tt_drake.models import shipped_artefact
 

@@ -48,3 +48,32 @@ def test_same_seed_and_unwritable_output_are_refused(trained, tmp_path, capsys):
     assert main(["train-predictor", "--serves", "5", "--out", str(tmp_path / "no" / "p.npz"),
                  "--quiet"]) == 2
     assert not (tmp_path / "no").exists()
+
+
+def test_bad_distributions_and_features_are_one_line_exit_2(tmp_path, capsys, monkeypatch):
+    out = tmp_path / "p.npz"
+    js = tmp_path / "e.json"
+    for argv, message in (
+            (["train-predictor", "--distribution", "default,lob"], "unknown serve distribution"),
+            (["train-predictor", "--distribution", "spin,spin"], "listed twice"),
+            (["eval-predictor", "--model", "unused.npz", "--distribution", "lob"],
+             "unknown serve distribution")):
+        assert main([*argv, "--serves", "5", "--out" if argv[0] == "train-predictor"
+                     else "--json", str(out if argv[0] == "train-predictor" else js),
+                     "--quiet"]) == 2
+        err = capsys.readouterr().err
+        assert message in err and err.count("\n") == 1
+    with pytest.raises(SystemExit) as exit_:  # argparse's choices: one line, status 2
+        main(["train-predictor", "--features", "spin", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert exit_.value.code == 2 and err.count("\n") == 1 and "invalid choice" in err
+    # A split asked of a ball file without record ids.
+    noids = tmp_path / "noids.json"
+    noids.write_text(json.dumps([{"pos_x": 0.0, "pos_y": 1.0, "pos_z": 0.1, "vel_x": 0.0,
+                                  "vel_y": -4.0, "vel_z": 1.0, "w_vel_x": 0.0, "w_vel_y": 0.0,
+                                  "w_vel_z": 0.0}]))
+    monkeypatch.setenv("TT_DRAKE_SERVES", str(noids))
+    assert main(["train-predictor", "--distribution", "default,real-train", "--serves", "5",
+                 "--out", str(out), "--quiet"]) == 2
+    assert "no train split" in capsys.readouterr().err
+    assert not out.exists() and not js.exists()
