@@ -12,19 +12,23 @@ returnable ones are reported (the issue's "held-out real-test serves the oracle 
 **Analytical player** (issue #13, item 2: the players re-plan until the hitting stage is
 committed; the analytical player's corrections re-plan it until ``correct_lead`` = 80 ms before
 the hit). Every stroke the player stores is recorded with the estimate it was planned from.
-Reported at two moments:
+Four moments, two at each end of the hitting stage:
 
-- *swing start* (``start_*``): the stroke in effect when the hitting stage began (the commit in
-  the paper's sense), planned on the last estimate before it;
-- *final* (``final_*``): the last stroke, the one the racket was driven to: the last correction
-  (or the swing start's stroke if none was needed), whose estimate is at least 80 ms before the
-  hit.
+- ``commit``: the planner's prediction from the last estimate available when the hitting stage
+  began (the swing start, the commit in the paper's sense);
+- ``start``: the stroke in effect then, planned on the last estimate before it that moved the
+  prediction (re-planning thresholds: 3 mm, 2 ms, 10 rad/s);
+- ``cutoff``: the planner's prediction from the last estimate available 80 ms before the final
+  stroke's t_hit: the last one a correction may use, i.e. the prediction the stroke is finally
+  committed on;
+- ``final``: the last stroke, the one the racket was driven to (the last correction, or the
+  swing start's stroke when none moved the prediction more than the racket forgives: 10 mm,
+  5 ms, 20 rad/s, or none was reachable for the arm).
 
 For each: the hitting-point position error ``*_p_hit_error_mm``, the t_hit error
-``*_t_hit_error_ms``, the spin-at-impact error ``*_impact_spin_error`` (rad/s, norm) and the
-estimator's spin error (norm, rad/s) at the estimate the stroke was planned from
-(``*_spin_error``). ``commit_p_hit_error_mm``: the planner's prediction from the estimate at the
-commit time itself (kept for comparison with earlier figures).
+``*_t_hit_error_ms``, the spin-at-impact error ``*_impact_spin_error`` (rad/s, norm), the
+estimator's spin error (norm, rad/s) at the estimate used (``*_spin_error``) and how long before
+the predicted hit that estimate was taken (``*_lead_ms``).
 
 **MoMP player**: the hitting stage is committed at its last re-plan; its final stroke's stimulus
 and t_hit (``final_*``; no spin).
@@ -193,19 +197,35 @@ def serve_report(diagram, ball_world, seed: int) -> dict:
         row.update(_errors(flight, prefix, stroke.p_hit, stroke.t_hit, stroke.spin))
         row[f"{prefix}_spin_error"] = float(np.linalg.norm(spin_est - true_spin(seen)))
         row[f"{prefix}_lead_ms"] = float(1e3 * (stroke.t_hit - seen))
-    # The planner's prediction from the estimate at the commit time itself.
-    spin_log = diagram.diagram.GetSubsystemByName("spin_logger").FindLog(ctx)
-    status = _at(diagram.status_logger.FindLog(ctx).sample_times(),
-                 diagram.status_logger.FindLog(ctx).data().T, t_commit)
-    estimate = _at(diagram.estimate_logger.FindLog(ctx).sample_times(),
-                   diagram.estimate_logger.FindLog(ctx).data().T, t_commit)
-    spin_est = _at(spin_log.sample_times(), spin_log.data().T, t_commit)
-    at_commit = player.planner.predict(estimate, float(status[1]), spin_est)
-    row["commit_p_hit_error_mm"] = (
-        _errors(flight, "commit", at_commit[0], at_commit[2])["commit_p_hit_error_mm"]
-        if at_commit is not None and status[0] > 0.5 else float("nan"))
-    row["commit_spin_error"] = float(np.linalg.norm(spin_est - true_spin(t_commit)))
+    # The planner's predictions from the estimate at the commit time itself and at the last
+    # moment a correction may still be made (``correct_lead`` before the final stroke's t_hit).
+    t_cutoff = float(history[-1][2].t_hit) - player.planner.config.correct_lead
+    for prefix, t in (("commit", t_commit), ("cutoff", t_cutoff)):
+        row.update(_prediction_at(diagram, player.planner, flight, prefix, t, true_spin))
     return row
+
+
+def _prediction_at(diagram, planner, flight: TrueFlight, prefix: str, t: float,
+                   true_spin) -> dict:
+    """The errors of the planner's prediction from the last estimate available at ``t`` (the
+    estimator's outputs logged at the referee's rate) and of the estimator's spin then."""
+    ctx = diagram.context
+
+    def logged(logger):
+        log = logger.FindLog(ctx)
+        return _at(log.sample_times(), log.data().T, t)
+
+    status = logged(diagram.status_logger)
+    spin_est = logged(diagram.diagram.GetSubsystemByName("spin_logger"))
+    out = {f"{prefix}_t": t, f"{prefix}_p_hit_error_mm": float("nan"),
+           f"{prefix}_spin_error": float(np.linalg.norm(spin_est - true_spin(float(status[1]))))}
+    if status[0] < 0.5:
+        return out
+    prediction = planner.predict(logged(diagram.estimate_logger), float(status[1]), spin_est)
+    if prediction is not None:
+        out.update(_errors(flight, prefix, prediction[0], prediction[2], prediction[3]))
+        out[f"{prefix}_lead_ms"] = float(1e3 * (prediction[2] - status[1]))
+    return out
 
 
 def momp_report(diagram, ball_world, seed: int) -> dict:
@@ -223,10 +243,9 @@ def momp_report(diagram, ball_world, seed: int) -> dict:
     return row
 
 
-SUMMARY_KEYS = ("start_p_hit_error_mm", "final_p_hit_error_mm", "commit_p_hit_error_mm",
-                "start_spin_error", "final_spin_error", "commit_spin_error",
-                "start_impact_spin_error", "final_impact_spin_error", "start_lead_ms",
-                "final_lead_ms")
+MOMENTS = ("commit", "start", "cutoff", "final")
+SUMMARY_KEYS = tuple(f"{m}_{q}" for q in ("p_hit_error_mm", "spin_error", "impact_spin_error",
+                                          "lead_ms") for m in MOMENTS)
 
 
 def _stats(a) -> dict:
@@ -243,7 +262,7 @@ def summarise(rows: list[dict]) -> dict:
     for key in SUMMARY_KEYS:
         if any(key in r for r in done):
             out[key] = _stats([r.get(key, np.nan) for r in done])
-    for prefix in ("start", "final"):
+    for prefix in MOMENTS:
         key = f"{prefix}_t_hit_error_ms"
         if any(key in r for r in done):
             out[f"{prefix}_abs_t_hit_error_ms"] = _stats(np.abs([r.get(key, np.nan)
