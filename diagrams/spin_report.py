@@ -106,7 +106,10 @@ def _logged_player(name: str):
 
 
 def _at(times: np.ndarray, values: np.ndarray, t: float) -> np.ndarray:
-    """The last logged row at or before ``t``."""
+    """The last logged row at or before ``t``; RuntimeError if the log's times go back (a log
+    left holding an earlier episode)."""
+    if np.any(np.diff(times) < 0.0):
+        raise RuntimeError("a log holds more than one episode: clear it before each run")
     k = int(np.searchsorted(times, t + 1e-9)) - 1
     return values[max(k, 0)]
 
@@ -169,6 +172,9 @@ def serve_report(diagram, ball_world, seed: int) -> dict:
 
     player = diagram.player
     player.history.clear()
+    # ServeDiagram clears its own loggers at each run, not this one (a log lives in the context's
+    # cache, which restoring the initial state does not reset).
+    diagram.diagram.GetSubsystemByName("spin_logger").FindMutableLog(diagram.context).Clear()
     result = diagram.run(seed)
     ctx = diagram.context
     row = {"seed": seed, "outcome": str(result.outcome.as_dict().get("outcome")),

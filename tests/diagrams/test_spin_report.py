@@ -76,3 +76,18 @@ def test_returnable_from_must_be_the_same_run(tmp_path, capsys):
     earlier.write_text("{not json")
     assert main(["--serves", "10", "--returnable-from", str(earlier)]) == 2
     assert "not a spin_report --ceiling result" in capsys.readouterr().err
+
+
+def test_a_log_of_two_episodes_is_refused():
+    """The last sample at or before t, and a log whose times go back (not cleared between
+    episodes) is an error rather than a sample from another episode."""
+    import numpy as np
+    import pytest
+
+    from tt_drake.diagrams.spin_report import _at
+
+    times = np.array([0.0, 0.1, 0.2])
+    values = np.array([[1.0], [2.0], [3.0]])
+    assert _at(times, values, 0.15)[0] == 2.0 and _at(times, values, 0.2)[0] == 3.0
+    with pytest.raises(RuntimeError, match="more than one episode"):
+        _at(np.r_[times, times], np.r_[values, values], 0.15)
