@@ -77,3 +77,36 @@ def test_bad_distributions_and_features_are_one_line_exit_2(tmp_path, capsys, mo
                  "--out", str(out), "--quiet"]) == 2
     assert "no train split" in capsys.readouterr().err
     assert not out.exists() and not js.exists()
+
+
+def test_eval_on_another_distribution_names_it(trained, capsys):
+    d, out = trained
+    js = d / "spin.json"
+    assert main(["eval-predictor", "--model", str(out), "--serves", "12", "--seed", "5",
+                 "--distribution", "spin", "--json", str(js), "--quiet"]) == 0
+    assert "12 spin (eval seed 5" in capsys.readouterr().out
+    data = json.loads(js.read_text())
+    assert data["distribution"] == "spin" and data["train_distribution"] == "default"
+    assert data["feature_set"] == "states"
+
+
+def test_a_mix_is_shared_evenly_in_its_order():
+    from tt_drake.diagrams.predictor import parse_distributions, share
+
+    names = parse_distributions("default, spin,real-train")
+    assert names == ["default", "spin", "real-train"]
+    assert share(900, names) == [300, 300, 300] and share(11, names) == [4, 4, 3]
+    assert share(2, names) == [1, 1, 0] and parse_distributions(None) == ["default"]
+
+
+def test_a_distributions_serves_are_its_own(tmp_path):
+    """The samples of a mix: each distribution's share drawn from that distribution (the
+    spin launcher's serves spin, the default ones do not), labelled with its index."""
+    import numpy as np
+
+    from tt_drake.diagrams.predictor import generate_mix
+
+    samples = generate_mix(4, 7, ["default", "spin"], None, workers=1, progress=False)
+    assert samples["distribution"].tolist() == [0, 0, 1, 1]
+    spin = np.abs(samples["launch"][:, 6:9]).max(axis=1)
+    assert np.all(spin[:2] == 0.0) and np.all(spin[2:] > 0.0) and np.all(spin[2:] <= 100.0)
