@@ -91,3 +91,17 @@ def test_a_log_of_two_episodes_is_refused():
     assert _at(times, values, 0.15)[0] == 2.0 and _at(times, values, 0.2)[0] == 3.0
     with pytest.raises(RuntimeError, match="more than one episode"):
         _at(np.r_[times, times], np.r_[values, values], 0.15)
+
+
+def test_a_split_of_a_file_without_ids_is_one_line(tmp_path, capsys, monkeypatch):
+    import json
+
+    noids = tmp_path / "noids.json"
+    noids.write_text(json.dumps([{"pos_x": 0.0, "pos_y": 1.0, "pos_z": 0.1, "vel_x": 0.0,
+                                  "vel_y": -4.0, "vel_z": 1.0, "w_vel_x": 0.0, "w_vel_y": 0.0,
+                                  "w_vel_z": 0.0}]))
+    monkeypatch.setenv("TT_DRAKE_SERVES", str(noids))
+    out = tmp_path / "report.json"
+    assert main(["--serves", "2", "--distribution", "real-test", "--json", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "no test split" in err and err.count("\n") == 1 and not out.exists()
