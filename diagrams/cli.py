@@ -254,12 +254,21 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--serves", type=_serve_count, default=1000, help="training serves")
     train.add_argument("--seed", type=_seed, default=0, help="base seed of the serves")
     train.add_argument("--out", required=True, help="predictor file to write (.npz)")
+    train.add_argument("--distribution", default=None,
+                       help="serve distribution, or a comma-separated mix shared evenly (e.g. "
+                            "default,spin,real-train); default: default")
+    train.add_argument("--features", default="states", choices=("states", "states+spin"),
+                       help="GPR inputs: the four observed states (the paper's), or those and "
+                            "the estimated spin at the fourth")
     train.add_argument("--quiet", action="store_true", help="no progress bar")
     evalp = command("eval-predictor", help="GPR vs physical model on held-out serves")
     evalp.add_argument("--model", required=True, help="predictor file from train-predictor")
     evalp.add_argument("--serves", type=_serve_count, default=3500, help="held-out serves")
     evalp.add_argument("--seed", type=_seed, default=1, help="base seed of the serves")
     evalp.add_argument("--json", default=None, help="write the metrics as JSON")
+    evalp.add_argument("--distribution", default=None,
+                       help="held-out serve distribution (or a comma-separated mix); default: "
+                            "default")
     evalp.add_argument("--quiet", action="store_true", help="no progress bar")
 
     rep = command("reproduce", help="the paper's experiments from nothing, with a report "
@@ -421,14 +430,15 @@ def _train_predictor(args) -> None:
     from tt_drake.diagrams.predictor import format_train, train_predictor
 
     print(format_train(train_predictor(args.serves, args.seed, args.out,
-                                       progress=not args.quiet)))
+                                       progress=not args.quiet, distribution=args.distribution,
+                                       feature_set=args.features)))
 
 
 def _eval_predictor(args) -> None:
     from tt_drake.diagrams.predictor import eval_predictor, format_eval
 
     print(format_eval(eval_predictor(args.model, args.serves, args.seed, args.json,
-                                     progress=not args.quiet)))
+                                     progress=not args.quiet, distribution=args.distribution)))
     if args.json:
         print(f"wrote {args.json}")
 

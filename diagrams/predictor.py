@@ -1,6 +1,11 @@
 """``tt-drake train-predictor`` / ``eval-predictor``: labelled serves, the GPR and its evaluation.
 
-One sample per serve (seed ``episode_seed(base_seed, i)``, ``default`` distribution):
+One sample per serve (seed ``episode_seed(base_seed, i)``; the ``default`` distribution unless
+asked otherwise; a pool distribution deals serve i of the run as ``tt-drake serve --seed
+base_seed`` does). A training set may mix distributions (``--distribution
+default,spin,real-train``): the serves are split evenly between them (the first ones get one more
+when they do not divide evenly), each distribution's serves being the first ones of its own run
+with seed base_seed.
 
 1. Drake: the serve flies in a ball-only world (table, net, floor, ball, aerodynamics); the ball
    state is logged ten times per camera frame (600 Hz, so every 10th sample is a camera frame).
@@ -9,7 +14,8 @@ One sample per serve (seed ``episode_seed(base_seed, i)``, ``default`` distribut
 3. Features, offline in numpy with the same code the Drake systems run: camera draws
    (:class:`~tt_drake.camera_model.CameraModel`, seeded per serve) on the true frame positions,
    the EKF (:func:`~tt_drake.estimation.run_filter`), its states at the four frames after the
-   plane y = 0 (:func:`~tt_drake.hitting_point.observation_frames`).
+   plane y = 0 (:func:`~tt_drake.hitting_point.observation_frames`) and, for the feature set
+   ``states+spin``, its spin at the fourth.
 
 The Drake part is the slow one (~0.1-0.2 s a serve); its results are cached in chunks of
 ``CHUNK`` serves in ``<output>.cache/`` so an interrupted run resumes where it stopped. Workers are
@@ -117,16 +123,54 @@ _WORKER: dict = {}
 
 
 def _worker_chunk(args) -> dict:
-    seeds = args
-    if "sim" not in _WORKER:
-        from tt_drake.serves import ServeSampler
+    seeds, distribution, base_seed = args
+    from tt_drake.serves import ServeSampler
 
+    if "sim" not in _WORKER:
         _WORKER["sim"] = BallOnlySimulation()
-        _WORKER["sampler"] = ServeSampler("default")
         _WORKER["model"] = (CompliantBounceBallModel(), BallModel())
+    key = (distribution, base_seed)
+    if _WORKER.get("sampler_key") != key:  # the pools deal serve i of run base_seed
+        _WORKER["sampler"] = ServeSampler(distribution, run_seed=base_seed)
+        _WORKER["sampler_key"] = key
     samples = [simulate_serve(_WORKER["sim"], _WORKER["sampler"], _WORKER["model"], s)
                for s in seeds]
     return _stack(samples)
+
+
+def parse_distributions(text: str | None) -> list[str]:
+    """The serve distributions of a comma-separated list (default: ``default``); ServeError
+    naming an unknown one or an unusable data file (a split asked of a file without ids); each
+    distribution once."""
+    from tt_drake.serves import ServeError, ServeSampler
+
+    names = [n.strip() for n in (text or "default").split(",")]
+    for name in names:
+        ServeSampler(name).check()
+    if len(set(names)) != len(names):
+        raise ServeError(f"a serve distribution is listed twice: {text!r}")
+    return names
+
+
+def share(serves: int, distributions: list[str]) -> list[int]:
+    """How many of ``serves`` each distribution gets (module docstring)."""
+    k = len(distributions)
+    return [serves // k + (1 if i < serves % k else 0) for i in range(k)]
+
+
+def generate_mix(serves: int, base_seed: int, distributions: list[str], cache_dir,
+                 workers: int = 2, progress: bool = True) -> dict:
+    """:func:`generate_samples` for each distribution's share, stacked; ``distribution`` holds
+    each serve's index into ``distributions``."""
+    parts = []
+    for j, (name, n) in enumerate(zip(distributions, share(serves, distributions), strict=True)):
+        if n == 0:
+            continue
+        part = generate_samples(n, base_seed, cache_dir, workers, progress,
+                                desc=f"simulating {name}", distribution=name)
+        part["distribution"] = np.full(n, j, dtype=np.int64)
+        parts.append(part)
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
 def _stack(samples: list[SimSample]) -> dict:
@@ -141,17 +185,19 @@ def _stack(samples: list[SimSample]) -> dict:
     }
 
 
-def _chunk_path(cache_dir: Path, base_seed: int, index: int) -> Path:
+def _chunk_path(cache_dir: Path, base_seed: int, index: int,
+                distribution: str = "default") -> Path:
     key = hashlib.sha256(json.dumps([SIM_VERSION, FRAME_RATE, SUBSAMPLES, MAX_FRAMES,
-                                     AFTER_CROSSING, "default"]).encode()).hexdigest()[:10]
+                                     AFTER_CROSSING, distribution]).encode()).hexdigest()[:10]
     return cache_dir / f"serves_s{base_seed}_c{index:05d}_{key}.npz"
 
 
 def generate_samples(n: int, base_seed: int, cache_dir: str | os.PathLike | None,
-                     workers: int = 2, progress: bool = True, desc: str = "simulating") -> dict:
-    """Simulate serves 0..n-1 of ``base_seed`` (seeds ``episode_seed(base_seed, i)``), reusing
-    cached chunks (a damaged one is reported and simulated again); returns the stacked arrays
-    of :class:`SimSample`."""
+                     workers: int = 2, progress: bool = True, desc: str = "simulating",
+                     distribution: str = "default") -> dict:
+    """Simulate serves 0..n-1 of ``base_seed`` (seeds ``episode_seed(base_seed, i)``) of
+    ``distribution``, reusing cached chunks (a damaged one is reported and simulated again);
+    returns the stacked arrays of :class:`SimSample`."""
     from tt_drake.outputs import FolderLock
 
     check_run(base_seed, n)
@@ -159,7 +205,7 @@ def generate_samples(n: int, base_seed: int, cache_dir: str | os.PathLike | None
     # The cache folder is locked while this run fills it: a concurrent run is refused.
     lock = FolderLock(cache, PredictorError, "predictor run") if cache is not None else None
     try:
-        return _generate_samples(n, base_seed, cache, workers, progress, desc)
+        return _generate_samples(n, base_seed, cache, workers, progress, desc, distribution)
     finally:
         if lock is not None:
             lock.release()
@@ -196,7 +242,7 @@ def _load_chunk(path: Path, seeds: list[int]) -> dict | None:
 
 
 def _generate_samples(n: int, base_seed: int, cache: Path | None, workers: int, progress: bool,
-                      desc: str) -> dict:
+                      desc: str, distribution: str = "default") -> dict:
     from tqdm import tqdm
 
     from tt_drake.diagrams.episodes import episode_seed
@@ -207,7 +253,7 @@ def _generate_samples(n: int, base_seed: int, cache: Path | None, workers: int, 
     todo = []
     for c in range(n_chunks):
         seeds = [episode_seed(base_seed, i) for i in range(c * CHUNK, min(n, (c + 1) * CHUNK))]
-        path = _chunk_path(cache, base_seed, c) if cache is not None else None
+        path = _chunk_path(cache, base_seed, c, distribution) if cache is not None else None
         data = _load_chunk(path, seeds) if path is not None else None
         if data is not None:
             chunks[c] = data
@@ -226,13 +272,14 @@ def _generate_samples(n: int, base_seed: int, cache: Path | None, workers: int, 
     try:
         if workers <= 1 or len(todo) <= 1:
             for c, seeds, path in todo:
-                store(c, path, _worker_chunk(seeds))
+                store(c, path, _worker_chunk((seeds, distribution, base_seed)))
         else:
             import multiprocessing as mp
 
             ctx = mp.get_context("fork")
             with ctx.Pool(workers) as pool:
-                results = pool.imap(_worker_chunk, [seeds for _, seeds, _ in todo])
+                results = pool.imap(_worker_chunk, [(seeds, distribution, base_seed)
+                                                    for _, seeds, _ in todo])
                 for (c, _, path), data in zip(todo, results, strict=True):
                     store(c, path, data)
     finally:
@@ -255,14 +302,15 @@ class PipelineResult:
     features: np.ndarray | None = None
     label: np.ndarray | None = None
     state4: np.ndarray | None = None  # estimator state at the fourth observation
+    spin4: np.ndarray | None = None  # and its spin there
     run: object = None
 
 
 def run_pipeline(frames_p, crossing, seed: int, camera: CameraConfig, estimator: EstimatorConfig,
-                 full: bool = False) -> PipelineResult:
-    """Camera and EKF on one serve's true frames; the features, the label and the fourth
-    observation's state. ``full`` runs the filter over all frames (for estimator statistics)
-    instead of stopping at the fourth observation."""
+                 full: bool = False, feature_set: str = "states") -> PipelineResult:
+    """Camera and EKF on one serve's true frames; the features (of ``feature_set``), the label
+    and the fourth observation's state and spin. ``full`` runs the filter over all frames (for
+    estimator statistics) instead of stopping at the fourth observation."""
     if not np.all(np.isfinite(crossing)):
         return PipelineResult(False, "no crossing of the hitting plane in Drake")
     t_cross = float(crossing[6])
@@ -292,15 +340,17 @@ def run_pipeline(frames_p, crossing, seed: int, camera: CameraConfig, estimator:
     idx = observation_frames(run.states, run.tracking)
     if idx is None:
         return PipelineResult(False, "estimator not tracking at the observation frames", run=run)
-    state4 = run.states[idx[-1]]
-    feats = make_features(run.states[idx])
+    state4, spin4 = run.states[idx[-1]], run.spins[idx[-1]]
+    feats = make_features(run.states[idx], spin4, feature_set)
     label = make_label(crossing[0:3], crossing[3:6], t_cross, float(times[idx[-1]]))
-    return PipelineResult(True, "", feats, label, state4, run)
+    return PipelineResult(True, "", feats, label, state4, spin4, run)
 
 
 def build_dataset(samples: dict, camera: CameraConfig, estimator: EstimatorConfig,
-                  physical: bool = False, progress: bool = False, desc: str = "filtering"):
-    """Features X, labels Y, physical-model predictions (or None) and skipped-serve reasons."""
+                  physical: bool = False, progress: bool = False, desc: str = "filtering",
+                  feature_set: str = "states"):
+    """Features X (of ``feature_set``), labels Y, physical-model predictions (or None: from the
+    estimated state and spin at the fourth observation) and skipped-serve reasons."""
     from tqdm import tqdm
 
     X, Y, P, used, skipped = [], [], [], [], {}
@@ -308,12 +358,12 @@ def build_dataset(samples: dict, camera: CameraConfig, estimator: EstimatorConfi
     for i in tqdm(range(len(samples["seed"])), desc=desc, unit="serve", file=sys.stderr,
                   disable=not progress):
         r = run_pipeline(samples["frames_p"][i], samples["crossing"][i], int(samples["seed"][i]),
-                         camera, estimator)
+                         camera, estimator, feature_set=feature_set)
         if not r.ok:
             skipped[r.reason] = skipped.get(r.reason, 0) + 1
             continue
         if phys is not None:
-            pred = phys.predict(r.state4)
+            pred = phys.predict(np.r_[r.state4, r.spin4])
             if pred is None:
                 skipped["physical model misses the plane"] = skipped.get(
                     "physical model misses the plane", 0) + 1
@@ -395,15 +445,24 @@ def _cache_dir(out: str) -> Path:
 
 def train_predictor(serves: int, seed: int, out: str, camera: CameraConfig | None = None,
                     estimator: EstimatorConfig | None = None, restarts: int = 1,
-                    workers: int = 2, progress: bool = True) -> dict:
+                    workers: int = 2, progress: bool = True, distribution: str | None = None,
+                    feature_set: str = "states") -> dict:
+    """Train on ``serves`` serves of ``distribution`` (a comma-separated mix: module docstring)
+    with the features of ``feature_set`` (:data:`tt_drake.hitting_point.FEATURE_SETS`)."""
+    from tt_drake.hitting_point import FEATURE_SETS
     from tt_drake.outputs import check_writable
 
+    distributions = parse_distributions(distribution)
+    if feature_set not in FEATURE_SETS:
+        raise PredictorError(f"unknown feature set {feature_set!r}; choose one of "
+                             f"{', '.join(FEATURE_SETS)}")
     check_writable(out)
     camera = camera or CameraConfig()
     estimator = estimator or EstimatorConfig()
     wall = time.perf_counter()
-    samples = generate_samples(serves, seed, _cache_dir(out), workers, progress)
-    X, Y, _, used, skipped = build_dataset(samples, camera, estimator, progress=progress)
+    samples = generate_mix(serves, seed, distributions, _cache_dir(out), workers, progress)
+    X, Y, _, used, skipped = build_dataset(samples, camera, estimator, progress=progress,
+                                           feature_set=feature_set)
     if len(X) < 20:
         raise PredictorError(f"only {len(X)} usable training serves; need at least 20")
 
@@ -411,13 +470,15 @@ def train_predictor(serves: int, seed: int, out: str, camera: CameraConfig | Non
         if progress:
             print(f"  fitted GP for {name}", file=sys.stderr)
 
-    gpr = HittingPointGPR.fit(X, Y, n_restarts=restarts, seed=seed, progress=tick)
+    gpr = HittingPointGPR.fit(X, Y, n_restarts=restarts, seed=seed, progress=tick,
+                              feature_set=feature_set)
     train_rows = regression_metrics(Y, gpr.predict_many(X))
     meta = {"train_seed": seed, "serves": serves, "used": int(len(X)), "skipped": skipped,
             "camera": camera.as_dict(), "estimator": estimator.as_dict(),
-            "distribution": "default", "frame_rate": FRAME_RATE}
+            "distribution": ",".join(distributions), "frame_rate": FRAME_RATE}
     gpr.save(out, meta)
     return {"out": out, "serves": serves, "used": int(len(X)), "skipped": skipped,
+            "distribution": meta["distribution"], "feature_set": feature_set,
             "train_metrics": train_rows, "kernels": gpr.info["kernels"],
             "fit_seconds": gpr.info["fit_seconds"],
             "wall_seconds": round(time.perf_counter() - wall, 1)}
@@ -437,12 +498,15 @@ def query_time(gpr: HittingPointGPR, X: np.ndarray, repeats: int = 2000) -> dict
 
 
 def eval_predictor(model: str, serves: int, seed: int, json_path: str | None = None,
-                   workers: int = 2, progress: bool = True, keep_errors: bool = False) -> dict:
-    """GPR and physical model against the true crossings of held-out serves. With
+                   workers: int = 2, progress: bool = True, keep_errors: bool = False,
+                   distribution: str | None = None) -> dict:
+    """GPR and physical model against the true crossings of held-out serves of
+    ``distribution`` (default ``default``; a comma-separated mix as in training). With
     ``keep_errors`` the result also holds ``errors``: the GPR's predicted-minus-true values
     (n, 7) in the report units (mm, mm/s, ms), not written to the JSON."""
     from tt_drake.outputs import check_writable, write_json_atomic
 
+    distributions = parse_distributions(distribution)
     gpr = HittingPointGPR.load(model)
     if json_path:
         check_writable(json_path)
@@ -454,12 +518,15 @@ def eval_predictor(model: str, serves: int, seed: int, json_path: str | None = N
     estimator = config_from_dict(meta["estimator"])
     wall = time.perf_counter()
     cache = _cache_dir(json_path) if json_path else None
-    samples = generate_samples(serves, seed, cache, workers, progress)
+    samples = generate_mix(serves, seed, distributions, cache, workers, progress)
     X, Y, P, used, skipped = build_dataset(samples, camera, estimator, physical=True,
-                                           progress=progress)
+                                           progress=progress, feature_set=gpr.feature_set)
     G = gpr.predict_many(X)
     data = {
         "model": str(model), "eval_seed": seed, "train_seed": meta.get("train_seed"),
+        "distribution": ",".join(distributions),
+        "train_distribution": meta.get("distribution", "default"),
+        "feature_set": gpr.feature_set,
         "serves": serves, "used": int(len(X)), "skipped": skipped,
         "camera": camera.as_dict(), "estimator": estimator.as_dict(),
         "gpr": regression_metrics(Y, G),
@@ -483,8 +550,10 @@ def _fmt(v, spec):
 
 def format_eval(data: dict) -> str:
     """The side-by-side table of MSE, RMSE and nMSE per output."""
-    lines = [f"held-out serves: {data['used']} of {data['serves']} (eval seed {data['eval_seed']},"
-             f" trained with seed {data['train_seed']})",
+    lines = [f"held-out serves: {data['used']} of {data['serves']} "
+             f"{data.get('distribution', 'default')} (eval seed {data['eval_seed']}, trained "
+             f"with seed {data['train_seed']} on {data.get('train_distribution', 'default')}, "
+             f"features {data.get('feature_set', 'states')})",
              f"{'output':8s} {'':5s} | {'GPR MSE':>10s} {'RMSE':>9s} {'nMSE':>9s} | "
              f"{'phys MSE':>10s} {'RMSE':>9s} {'nMSE':>9s}"]
     for g, p in zip(data["gpr"], data["physical"], strict=True):
@@ -510,7 +579,8 @@ def format_eval(data: dict) -> str:
 
 
 def format_train(data: dict) -> str:
-    lines = [f"trained on {data['used']} of {data['serves']} serves in {data['fit_seconds']} s "
+    lines = [f"trained on {data['used']} of {data['serves']} {data.get('distribution', 'default')}"
+             f" serves (features {data.get('feature_set', 'states')}) in {data['fit_seconds']} s "
              f"(GP fit); wrote {data['out']}"]
     for row, kern in zip([r for r in data["train_metrics"] if not r["exact"]], data["kernels"],
                          strict=True):

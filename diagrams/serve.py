@@ -129,12 +129,9 @@ def add_ceiling(data: dict, scenario: Scenario, player: str, serves: int, seed: 
     ``returnable_rate``, ``returnable_serves``, ``return_rate_of_returnable`` (None when no
     serve is returnable) and ``returns_of_returnable``."""
     if player == "analytical" and scenario.perception == "oracle":
-        oracle = results
+        returnable = [r.outcome.returned for r in results]
     else:
-        teacher = copy.deepcopy(scenario)
-        teacher.perception = "oracle"
-        oracle = _episodes(teacher, "analytical", serves, seed, progress, workers)
-    returnable = [r.outcome.returned for r in oracle]
+        returnable = oracle_returns(scenario, serves, seed, progress, workers)
     returned = sum(r.outcome.returned and ok for r, ok in zip(results, returnable, strict=True))
     n = sum(returnable)
     summary = data["summary"]
@@ -144,6 +141,17 @@ def add_ceiling(data: dict, scenario: Scenario, player: str, serves: int, seed: 
     summary["return_rate_of_returnable"] = returned / n if n else None
     for episode, ok in zip(data["episodes"], returnable, strict=True):
         episode["returnable"] = bool(ok)
+
+
+def oracle_returns(scenario: Scenario, serves: int, seed: int, progress: bool = False,
+                   workers: int = 1) -> list[bool]:
+    """Whether the oracle analytical player legally returns each serve of the run (episode i:
+    ``episode_seed(seed, i)``, the pools dealt by ``scenario.launcher.run_seed``): the returnable
+    serves. ``scenario`` is left as it was."""
+    teacher = copy.deepcopy(scenario)
+    teacher.perception = "oracle"
+    return [r.outcome.returned
+            for r in _episodes(teacher, "analytical", serves, seed, progress, workers)]
 
 
 def format_summary(data: dict) -> str:

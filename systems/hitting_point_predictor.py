@@ -100,10 +100,10 @@ class HittingPointPredictor(LeafSystem):
 
     def predict(self, observations: np.ndarray, spin=None) -> np.ndarray | None:
         """(p_hit, v_hit, time to go) from the four observed states (4, 6); the physical model
-        starts from the fourth with ``spin`` (zero if None). The GPR's features are the states
-        only (the shipped predictor's layout)."""
+        starts from the fourth with ``spin`` (zero if None). The GPR's features are those of
+        its feature set: the states (the shipped predictor's), or the states and ``spin``."""
         if self.gpr is not None:
-            return self.gpr.predict(observations.reshape(-1))
+            return self.gpr.predict(self.gpr.features(observations, spin))
         return self.physical.predict(_with_spin(observations[-1], spin))
 
     def _final(self, observations: np.ndarray, spin) -> np.ndarray | None:

@@ -4,7 +4,11 @@
 it passes the virtual plane s (y = ``PLANES.observation_y``, the net plane) toward the robot:
 ``x = (p_1, v_1, p_2, v_2, p_3, v_3, p_4, v_4)`` (24 numbers), where frame 1 is the first frame
 whose filtered estimate has ``p_y < observation_y``. They come from the ball-flight estimator
-(:mod:`tt_drake.estimation`) fed by the camera (:mod:`tt_drake.camera_model`).
+(:mod:`tt_drake.estimation`) fed by the camera (:mod:`tt_drake.camera_model`). That is the
+feature set ``states`` (the paper's, the shipped predictor's); ``states+spin`` appends the
+estimator's spin omega (rad/s, world frame) at the fourth observation (27 numbers): what the
+filter has learnt about the spin from the flight so far and, for a ball that bounced on the
+server's half, from that bounce (docs/spin.md). A saved predictor names its feature set.
 
 **Outputs** (seven): the ball's position ``p_hit`` (3) and velocity ``v_hit`` (3) when its centre
 reaches the virtual hitting plane y = ``PLANES.hitting_y``, and ``t_hit``, the time from the fourth
@@ -46,6 +50,8 @@ from tt_drake.constants import PLANES
 
 N_OBSERVATIONS = 4
 FEATURE_SIZE = 6 * N_OBSERVATIONS
+#: The GPR's feature sets and their sizes (module docstring).
+FEATURE_SETS = {"states": FEATURE_SIZE, "states+spin": FEATURE_SIZE + 3}
 OUTPUT_NAMES = ("p_x", "p_y", "p_z", "v_x", "v_y", "v_z", "t_hit")
 OUTPUT_UNITS = ("mm", "mm", "mm", "mm/s", "mm/s", "mm/s", "ms")  # for RMSE in reports
 EXACT_OUTPUT = 1  # p_y: fixed by the hitting plane's definition
@@ -107,12 +113,20 @@ def observation_frames(states: np.ndarray, tracking: np.ndarray,
     return idx
 
 
-def make_features(observed_states: np.ndarray) -> np.ndarray:
-    """The 24 features from the estimator's states (4, 6) at the four observation frames."""
+def make_features(observed_states: np.ndarray, spin=None,
+                  feature_set: str = "states") -> np.ndarray:
+    """The features of ``feature_set`` (module docstring) from the estimator's states (4, 6) at
+    the four observation frames and, for ``states+spin``, its spin (3) at the fourth."""
     s = np.asarray(observed_states, dtype=float)
     if s.shape != (N_OBSERVATIONS, 6):
         raise ValueError(f"expected ({N_OBSERVATIONS}, 6) observed states, got {s.shape}")
-    return s.reshape(-1)
+    if feature_set == "states":
+        return s.reshape(-1)
+    if feature_set == "states+spin":
+        w = np.zeros(3) if spin is None else np.asarray(spin, dtype=float).reshape(3)
+        return np.r_[s.reshape(-1), w]
+    raise ValueError(f"unknown feature set {feature_set!r}; choose one of "
+                     f"{', '.join(FEATURE_SETS)}")
 
 
 def make_label(p_hit, v_hit, t_cross: float, t_obs: float) -> np.ndarray:
@@ -143,7 +157,8 @@ class HittingPointGPR:
     """Seven outputs: six independent GPs and the exact p_y (module docstring)."""
 
     def __init__(self, x_mean, x_scale, train_x, length_scales, signal_var, alpha, y_mean, y_scale,
-                 exact_value: float = PLANES.hitting_y, info: dict | None = None):
+                 exact_value: float = PLANES.hitting_y, info: dict | None = None,
+                 feature_set: str = "states"):
         self.x_mean = np.asarray(x_mean, dtype=float)
         self.x_scale = np.asarray(x_scale, dtype=float)
         self.train_x = np.asarray(train_x, dtype=float)  # standardised (n, d)
@@ -154,6 +169,7 @@ class HittingPointGPR:
         self.y_scale = np.asarray(y_scale, dtype=float)  # (6,)
         self.exact_value = float(exact_value)
         self.info = info or {}
+        self.feature_set = feature_set
         # Pre-scaled training inputs per output: X / l, and their squared norms.
         self._xs = self.train_x[None, :, :] / self.length_scales[:, None, :]  # (6, n, d)
         self._xs2 = np.einsum("knd,knd->kn", self._xs, self._xs)
@@ -164,12 +180,17 @@ class HittingPointGPR:
     def learnt_outputs() -> list[int]:
         return [i for i in range(len(OUTPUT_NAMES)) if i != EXACT_OUTPUT]
 
+    def features(self, observed_states, spin=None) -> np.ndarray:
+        """This predictor's features from the four observed states and the spin at the fourth
+        (:func:`make_features` with its feature set)."""
+        return make_features(observed_states, spin, self.feature_set)
+
     @classmethod
     def fit(cls, X, Y, n_restarts: int = 1, seed: int = 0, progress=None,
-            ard: bool = False) -> HittingPointGPR:
-        """Train on features X (n, 24) and labels Y (n, 7). ``ard``: one length scale per input
-        (slow: ~80 s for 200 serves); default one shared length scale on the standardised inputs
-        (the paper's Gaussian kernel)."""
+            ard: bool = False, feature_set: str = "states") -> HittingPointGPR:
+        """Train on features X (n, 24 or 27: ``feature_set``) and labels Y (n, 7). ``ard``: one
+        length scale per input (slow: ~80 s for 200 serves); default one shared length scale on
+        the standardised inputs (the paper's Gaussian kernel)."""
         import warnings
 
         from sklearn.exceptions import ConvergenceWarning
@@ -178,6 +199,9 @@ class HittingPointGPR:
 
         X = np.asarray(X, dtype=float)
         Y = np.asarray(Y, dtype=float)
+        if feature_set not in FEATURE_SETS or X.shape[1] != FEATURE_SETS[feature_set]:
+            raise ValueError(f"{X.shape[1]} features do not make the feature set "
+                             f"{feature_set!r}")
         x_mean = X.mean(axis=0)
         x_scale = X.std(axis=0)
         x_scale[x_scale < 1e-12] = 1.0
@@ -213,12 +237,12 @@ class HittingPointGPR:
             "fit_seconds": round(time.perf_counter() - wall, 2),
         }
         gpr = cls(x_mean, x_scale, Xs, np.array(lengths), np.array(svars), np.array(alphas),
-                  np.array(ymeans), np.array(yscales), info=info)
+                  np.array(ymeans), np.array(yscales), info=info, feature_set=feature_set)
         gpr._sklearn = (models, Xs)
         return gpr
 
     def predict(self, x) -> np.ndarray:
-        """The 7 outputs for one feature vector (24,), numpy only."""
+        """The 7 outputs for one feature vector (24 or 27: :meth:`features`), numpy only."""
         xs = (np.asarray(x, dtype=float) - self.x_mean) / self.x_scale
         q = xs[None, :] / self.length_scales  # (6, d)
         d2 = self._xs2 - 2.0 * np.einsum("knd,kd->kn", self._xs, q) + np.einsum("kd,kd->k", q, q)[
@@ -255,7 +279,10 @@ class HittingPointGPR:
         }
         doc = {"version": ARTEFACT_VERSION, "outputs": list(OUTPUT_NAMES),
                "exact_output": OUTPUT_NAMES[EXACT_OUTPUT], "exact_value": self.exact_value,
-               "feature_size": FEATURE_SIZE, "info": self.info, **(meta or {})}
+               "feature_size": FEATURE_SETS[self.feature_set], "info": self.info,
+               **(meta or {})}
+        if self.feature_set != "states":  # a file without the field is the paper's set
+            doc["feature_set"] = self.feature_set
         return save_artefact(path, ARTEFACT_KIND, arrays, doc)
 
     @classmethod
@@ -266,8 +293,13 @@ class HittingPointGPR:
             arrays, meta = load_artefact(path, ARTEFACT_KIND)
         except ArtefactError as err:
             raise PredictorFileError(str(err)) from None
+        feature_set = meta.get("feature_set", "states")
+        if not isinstance(feature_set, str) or feature_set not in FEATURE_SETS:
+            raise PredictorFileError(f"{path}: unknown feature set {feature_set!r}; this code "
+                                     f"knows {', '.join(FEATURE_SETS)}")
+        size = FEATURE_SETS[feature_set]
         if meta.get("version") != ARTEFACT_VERSION or list(meta.get("outputs", [])) != list(
-                OUTPUT_NAMES) or meta.get("feature_size") != FEATURE_SIZE:
+                OUTPUT_NAMES) or meta.get("feature_size") != size:
             raise PredictorFileError(f"{path}: predictor version/outputs/features do not match "
                                      f"this code (version {meta.get('version')!r})")
         n_out = len(OUTPUT_NAMES) - 1
@@ -282,8 +314,9 @@ class HittingPointGPR:
                                              f"{arrays[name].shape}, expected {shape}")
         except (KeyError, ValueError) as err:
             raise PredictorFileError(f"{path}: malformed predictor ({err})") from None
-        if d != FEATURE_SIZE:
-            raise PredictorFileError(f"{path}: {d} features, this code uses {FEATURE_SIZE}")
+        if d != size:
+            raise PredictorFileError(f"{path}: {d} features, its feature set {feature_set!r} "
+                                     f"has {size}")
         # Scales and kernel parameters divide or weigh every prediction: strictly positive.
         for name in ("x_scale", "length_scales", "signal_var", "y_scale"):
             if not np.all(arrays[name] > 0):
@@ -294,7 +327,7 @@ class HittingPointGPR:
         gpr = cls(arrays["x_mean"], arrays["x_scale"], arrays["train_x"],
                   arrays["length_scales"], arrays["signal_var"], arrays["alpha"],
                   arrays["y_mean"], arrays["y_scale"], exact_value=meta.get("exact_value"),
-                  info=meta.get("info", {}))
+                  info=meta.get("info", {}), feature_set=feature_set)
         gpr.meta = meta
         return gpr
 
