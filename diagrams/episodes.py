@@ -426,12 +426,14 @@ class ServeDiagram:
         """The momp player's primitive library (None for other players)."""
         return getattr(self.player, "library", None)
 
-    def run(self, seed: int, gamma=None) -> EpisodeResult:
+    def run(self, seed: int, gamma=None, weights=None) -> EpisodeResult:
         """Simulate one serve episode from ``seed``, from t = 0 (a recording places it on its
         own timeline afterwards). ``gamma``: the momp player's responsibilities for this episode
-        (default: the loaded library's)."""
+        (default: the loaded library's); ``weights``: its hitting primitives' weights ``(P, D,
+        B)`` for this episode (PoWER's explored weights; default: the loaded library's)."""
         wall = time.perf_counter()
         self._set_gamma(gamma)
+        self._set_weights(weights)
         self.context.SetTimeStateAndParametersFrom(self._initial)
         # A fresh integrator: its step-size history would make an episode depend on the ones
         # before it (a landing point moved 7e-7 m) and on a recording's extension of them.
@@ -512,6 +514,19 @@ class ServeDiagram:
             raise PlayerError(f"gamma must be {self._gamma0.shape[0]} non-negative values, not "
                               "all zero")
         library.gamma = g.copy()
+
+    def _set_weights(self, weights) -> None:
+        library = self.library
+        if library is None:
+            if weights is not None:
+                raise PlayerError("primitive weights apply to the momp player only")
+            return
+        if not hasattr(self, "_weights0"):
+            self._weights0 = library.weights.copy()
+        w = self._weights0 if weights is None else np.asarray(weights, dtype=float)
+        if w.shape != self._weights0.shape or not np.all(np.isfinite(w)):
+            raise PlayerError(f"primitive weights must be {self._weights0.shape} finite values")
+        library.weights = w.copy()
 
     def _beliefs(self) -> dict:
         """Estimated ball path and predicted hitting points (with their times) of the episode."""

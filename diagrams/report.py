@@ -26,6 +26,8 @@ PAPER = {
                   "-", None),
     "pruned": ("Responsibility learning: primitives pruned (their earlier success)",
                "about 27 % (30 %)", None),
+    "power": ("PoWER (Eq. 9) in Algorithm 3: mean reward per batch, first -> last (legal return "
+              "by the primitives)", "-", None),
     "final": ("Learned MoMP player (responsibilities learned): legal return / on target",
               "94 %", 0.94),
     "real": ("Learned MoMP player on real serve states (D'Ambrosio et al. 2025, CC-BY 4.0): "
@@ -96,7 +98,17 @@ def table_rows(results: dict) -> list[dict]:
                          resp["pruned_share"], resp["rollouts"],
                          f"{resp['rollouts']} rollouts in batches of {resp['batch']}, --seed "
                          f"{resp['seed']}+batch"))
+    power = results.get("power")
+    if power and power["curve"]:
+        curve = np.array(power["curve"])
+        rows.append(_row("power", f"{curve[0, 1]:.3f} -> {curve[-1, 1]:.3f} ({_pct(curve[0, 2])} "
+                                  f"-> {_pct(curve[-1, 2])}); {power['pruned']} of "
+                                  f"{power['primitives']} pruned; weights moved "
+                                  f"{100.0 * curve[-1, 6]:.2f} % (relative norm)",
+                         curve[-1, 1], power["rollouts"], power["command"]))
     final = results.get("final") or results.get("final_partial")
+    library = (results.get("final") or {}).get("library") or (
+        (power or {}).get("library") or "responsibility/library_learned.npz")
     if final:
         for key in ("default", "real"):
             if key not in final:
@@ -105,7 +117,7 @@ def table_rows(results: dict) -> list[dict]:
             note = " (partial: the stage is still running)" if r.get("partial") else ""
             rows.append(_row("final" if key == "default" else "real",
                              _momp(r) + note, r["momp_return_rate"], r["serves"],
-                             f"--player momp --library DIR/responsibility/library_learned.npz "
+                             f"--player momp --library DIR/{library} "
                              f"--distribution {key} --seed {r['seed']}"))
     return rows
 
@@ -135,6 +147,16 @@ def _plots(run, results: dict) -> list[str]:
         written.append(rp.plot_gamma_histogram(
             folder / "responsibilities.png", np.ones_like(state["gamma"]), state["gamma"],
             threshold=float(resp["threshold"])))
+    power = results.get("power")
+    if power and power["curve"]:
+        curve = np.array(power["curve"])
+        written.append(rp.plot_learning_curve(
+            folder / "power_learning.png",
+            [{"label": "mean reward (explored weights)", "x": curve[:, 0], "y": curve[:, 1]},
+             {"label": "legal return by the primitives", "x": curve[:, 0], "y": curve[:, 2]},
+             {"label": "share pruned", "x": curve[:, 0], "y": curve[:, 4] / power["primitives"]}],
+            xlabel="rollouts", ylabel="per batch", title="Algorithm 3 with PoWER (Eq. 9)",
+            paper={"final success": 0.94}))
     crkr = results.get("crkr")
     if crkr:
         its = crkr["iterations"]

@@ -15,7 +15,10 @@ Stages, in order (each a function below; :data:`STAGES`):
 5. ``single``: a random sample of library primitives, each alone (gamma one-hot);
 6. ``gamma1``: the mixture with gamma = 1 (CrKR, and with the analytical IK instead);
 7. ``responsibility``: responsibility learning (Algorithm 3, Eqs. 10-11) in batches of rollouts;
-8. ``final``: the learned player on ``final_serves`` default serves and on ``real`` serves.
+8. ``power``: Algorithm 3 with PoWER (Eq. 9) too, from the responsibility stage's library: every
+   rollout explores the primitives' weights, its reward updates the responsibilities and the
+   weights of the primitives that took part (:mod:`tt_drake.mixture_learning`);
+9. ``final``: the learned player on ``final_serves`` default serves and on ``real`` serves.
 
 Checkpoints. ``DIR/config.json`` fixes the run's settings (a DIR holding another run is refused).
 Every rollout stage writes its episodes in chunks of :data:`CHUNK` (``episodes_00000.json`` ...),
@@ -46,7 +49,7 @@ from tt_drake.provenance import run_provenance
 
 CHUNK = 100
 STAGES = ("teacher", "predictor", "library", "crkr", "single", "gamma1", "responsibility",
-          "final")
+          "power", "final")
 
 
 class ReproduceError(ValueError):
@@ -81,6 +84,12 @@ class ReproduceConfig:
     responsibility_rollouts: int = 2000
     responsibility_batch: int = 100
     responsibility_seed: int = 50
+    # Algorithm 3 with PoWER (Eq. 9), from the responsibility stage's library.
+    power_rollouts: int = 1000
+    power_batch: int = 100
+    power_seed: int = 60
+    power_sigma: float = 0.1  # exploration: a fraction of each joint's weight spread
+    power_n_best: int = 10
     final_serves: int = 10000  # paper: 10,000
     final_seed: int = 2026
     real_serves: int = 500
@@ -97,7 +106,8 @@ def quick_config() -> ReproduceConfig:
         teacher_serves=100, predictor_train_serves=150, predictor_test_serves=200,
         primitives=60, crkr_samples=80, crkr_serves=80, crkr_max_iterations=2,
         crkr_min_gain=-1.0, single_primitives=3, single_serves=15, gamma1_serves=40,
-        responsibility_rollouts=120, responsibility_batch=40, final_serves=60, real_serves=30,
+        responsibility_rollouts=120, responsibility_batch=40, power_rollouts=80, power_batch=40,
+        final_serves=60, real_serves=30,
         predictor_restarts=0)
 
 
@@ -164,9 +174,10 @@ class Run:
 
     # ------------------------------------------------------------------------- rollouts
     def rollouts(self, folder: Path, scenario, player: str, serves: int, seed: int,
-                 gamma=None, desc: str = "") -> list[dict]:
+                 gamma=None, desc: str = "", weights=None) -> list[dict]:
         """Episodes ``episode_seed(seed, i)``, i < serves, as dicts (``EpisodeResult.as_dict``),
-        kept in chunk files in ``folder`` so an interrupted stage resumes."""
+        kept in chunk files in ``folder`` so an interrupted stage resumes. ``weights``: None or
+        a function of ``i`` giving the momp player's primitive weights for episode ``i``."""
         from tt_drake.diagrams.episodes import episode_seed
         from tt_drake.diagrams.parallel import run_episodes
 
@@ -185,7 +196,8 @@ class Run:
         pending: dict[int, list] = {}
         seeds = [episode_seed(seed, i) for i in todo]
         results = run_episodes(scenario, player, seeds, self.workers, gamma=gamma,
-                               executor=self.executor)
+                               executor=self.executor,
+                               weights=None if weights is None else (weights(i) for i in todo))
         for i, result in zip(todo, results, strict=True):
             c = i // CHUNK
             pending.setdefault(c, []).append(result.as_dict())
@@ -445,9 +457,100 @@ def _save_learned_library(run: Run, gamma, state, out) -> None:
                                                int(state["curve"][-1, 0])})
 
 
+def stage_power(run: Run) -> dict:
+    """Algorithm 3 with PoWER, in batches: the rollouts of a batch use the batch's mean weights
+    plus their own exploration (seeded by the batch and the rollout) and the batch's gamma; then,
+    in rollout order, each rollout's credited reward updates the responsibilities (Eqs. 10-11)
+    and joins the importance samplers of the primitives that took part; Eq. 9 updates their
+    weights once per batch. Starts from the responsibility stage's library (its gamma, s, n)."""
+    from tt_drake.artefacts import ArtefactError, load_artefact, save_artefact
+    from tt_drake.learned_player import load_player_library
+    from tt_drake.mixture_learning import MixtureLearner, PowerParams, explored_weights
+
+    c = run.config
+    folder = run.folder("power")
+    source = run.result("responsibility")["library"]
+    library, _, _ = load_player_library(run.path(source))
+    params = PowerParams(relative_sigma=c.power_sigma, n_best=c.power_n_best)
+    start = library.weights.copy()
+    try:
+        state, _ = load_artefact(folder / "state.npz", "power-learning")
+        learner = MixtureLearner.from_state(state, library.stimuli, library.bandwidths,
+                                            library.responsibility, params)
+        done, curve = int(state["batches"]), state["curve"]
+    except ArtefactError:
+        learner = MixtureLearner(library.weights, library.stimuli, library.bandwidths,
+                                 library.responsibility, params, gamma=library.gamma,
+                                 s=library.s, n=library.n)
+        done, curve = 0, np.zeros((0, 7))
+    scenario = _learned(run)
+    scenario.learned.library = str(run.path(source))
+    batches = -(-c.power_rollouts // c.power_batch)
+    n = learner.n_primitives
+    for b in range(done, batches):
+        first = b * c.power_batch
+        size = min(c.power_batch, c.power_rollouts - first)
+        mean, pruned, gamma = learner.weights.copy(), learner.pruned.copy(), learner.gamma.copy()
+
+        def explored(i, b=b, mean=mean, pruned=pruned):
+            return explored_weights(mean, learner.sigma, pruned,
+                                    np.random.default_rng([c.power_seed, b, i]))
+
+        episodes = run.rollouts(folder / f"batch_{b:04d}", scenario, "momp", size,
+                                c.power_seed + b, gamma=gamma, weights=explored,
+                                desc=f"PoWER batch {b + 1}/{batches}")
+        for i, e in enumerate(episodes):
+            stroke = e.get("stroke")
+            if not stroke or not stroke["primitives"]:
+                continue  # no stroke was planned: nothing to credit
+            learner.credit(stroke["stimulus"], stroke["primitives"], stroke["mixture"],
+                           credited_reward(e), explored(i))
+        updated = learner.update_weights()
+        r = rates(episodes)
+        moved = float(np.mean(np.linalg.norm((learner.weights - start).reshape(n, -1), axis=1)
+                              / np.maximum(np.linalg.norm(start.reshape(n, -1), axis=1), 1e-12)))
+        curve = np.vstack([curve, [first + size, np.mean([credited_reward(e) for e in episodes]),
+                                   r["momp_return_rate"], r["target_rate"],
+                                   float(learner.pruned.sum()), float(updated.size), moved]])
+        save_artefact(folder / "state.npz", "power-learning",
+                      {**learner.state(), "batches": np.array(b + 1), "curve": curve},
+                      {"rollouts": int(first + size)})
+        shutil.rmtree(folder / f"batch_{b:04d}", ignore_errors=True)  # now in the state
+        run.say(f"  PoWER batch {b + 1}/{batches}: mean reward {curve[-1, 1]:.3f}, return "
+                f"{r['momp_return_rate']:.1%} by the primitives, {updated.size} primitives "
+                f"updated, pruned {int(curve[-1, 4])} of {n}")
+    out = folder / "library_power.npz"
+    _save_power_library(run, source, learner, int(curve[-1, 0]), out)
+    return {"curve": curve.tolist(), "curve_columns": list(POWER_CURVE),
+            "primitives": n, "pruned": int(learner.pruned.sum()),
+            "library": run.rel(out), "rollouts": c.power_rollouts, "batch": c.power_batch,
+            "seed": c.power_seed, **params.to_dict(),
+            "command": f"{c.power_rollouts} rollouts in batches of {c.power_batch}, --seed "
+                       f"{c.power_seed}+batch, exploration {c.power_sigma} of each joint's "
+                       "weight spread"}
+
+
+POWER_CURVE = ("rollouts", "mean_reward", "momp_return_rate", "target_rate", "pruned",
+               "primitives_updated", "relative_weight_change")
+
+
+def _save_power_library(run: Run, source: str, learner, rollouts: int, out) -> None:
+    """The responsibility stage's library with the weights, gamma, s and n of Algorithm 3;
+    pruned primitives removed."""
+    from tt_drake.learned_player import load_player_library, save_player_library
+
+    library, stages, meta = load_player_library(run.path(source))
+    library.weights = learner.weights.copy()
+    library.gamma, library.s, library.n = learner.gamma.copy(), learner.s.copy(), learner.n.copy()
+    library.remove(np.flatnonzero(learner.pruned))
+    meta = {k: v for k, v in meta.items() if k not in ("learned_format_version", "dmp",
+                                                         "responsibility", "min_weight")}
+    save_player_library(out, library, stages, {**meta, "power_rollouts": rollouts})
+
+
 def stage_final(run: Run) -> dict:
     c = run.config
-    library = run.result("responsibility")["library"]
+    library = (run.result("power") or run.result("responsibility"))["library"]
     out = {"library": library}
     for name, distribution, serves, seed in (("default", "default", c.final_serves, c.final_seed),
                                              ("real", "real", c.real_serves, c.real_seed)):
@@ -483,7 +586,7 @@ def _export_artefacts(run: Run, library: str) -> dict:
 STAGE_FUNCTIONS = {"teacher": stage_teacher, "predictor": stage_predictor,
                    "library": stage_library, "crkr": stage_crkr, "single": stage_single,
                    "gamma1": stage_gamma1, "responsibility": stage_responsibility,
-                   "final": stage_final}
+                   "power": stage_power, "final": stage_final}
 
 
 def reproduce(out, quick: bool = False, workers: int | None = None, executor: str = "local",

@@ -40,7 +40,7 @@ from tt_drake.momp import gating_weights
 from tt_drake.power import PoWER
 from tt_drake.responsibility import ResponsibilityParams, responsibility_update
 
-__all__ = ["PowerParams", "MixtureLearner", "exploration_sigma"]
+__all__ = ["PowerParams", "MixtureLearner", "exploration_sigma", "explored_weights"]
 
 FloatArray = NDArray[np.float64]
 
@@ -70,6 +70,18 @@ def exploration_sigma(weights: ArrayLike, relative_sigma: float) -> FloatArray:
     w = np.asarray(weights, dtype=float)
     spread = w.std(axis=(0, 2)) if w.shape[0] * w.shape[2] > 1 else np.abs(w).mean(axis=(0, 2))
     return (relative_sigma * np.where(spread > 0, spread, 1.0))[:, None]
+
+
+def explored_weights(weights: ArrayLike, sigma: ArrayLike, pruned: ArrayLike,
+                     rng: np.random.Generator) -> FloatArray:
+    """``w_i + eps_i`` with ``eps_i ~ N(0, diag(sigma^2))`` for every primitive ``i`` not
+    ``pruned`` (Algorithm 3's exploration); ``weights`` is ``(P, D, B)``, ``sigma`` broadcasts to
+    ``(D, B)``."""
+    w = np.asarray(weights, dtype=float)
+    eps = np.broadcast_to(np.asarray(sigma, dtype=float), w.shape[1:]) * rng.standard_normal(
+        w.shape)
+    eps[np.asarray(pruned, dtype=bool)] = 0.0
+    return w + eps
 
 
 class MixtureLearner:
@@ -115,10 +127,7 @@ class MixtureLearner:
     def explore(self, rng: np.random.Generator) -> FloatArray:
         """Explored weights ``w_i + eps_i`` for every primitive (``eps_i ~ N(0, Sigma)``; none
         for a pruned one), shape ``(P, D, B)``."""
-        eps = np.broadcast_to(self.sigma, self.weights.shape[1:]) * rng.standard_normal(
-            self.weights.shape)
-        eps[self.pruned] = 0.0
-        return self.weights + eps
+        return explored_weights(self.weights, self.sigma, self.pruned, rng)
 
     def power_shares(self, x: ArrayLike) -> FloatArray:
         """Eq. 9's share of every primitive in a rollout with stimulus ``x``: ``k(x - x_i) /

@@ -97,15 +97,18 @@ class PoWER:
         w = np.asarray(weights, dtype=float)
         if not self._heap:
             return w.copy()
-        r = np.array([item[0] for item in self._heap])
-        theta = np.stack([item[2] for item in self._heap])  # (J, *w.shape)
+        # Summed in arrival order, whatever the heap's layout: a sampler restored from its
+        # state() gives bit-identical updates.
+        items = sorted(self._heap, key=lambda item: item[1])
+        r = np.array([item[0] for item in items])
+        theta = np.stack([item[2] for item in items])  # (J, *w.shape)
         if theta.shape[1:] != w.shape:
             raise ValueError(f"weights have shape {w.shape}, rollouts {theta.shape[1:]}")
         eps = theta - w
         if self._heap[0][3] is None:  # one policy: nu = 1
             total = r.sum()
             return w + np.tensordot(r, eps, axes=1) / total if total > 0 else w.copy()
-        nu = np.stack([item[3] for item in self._heap])  # (J, P)
+        nu = np.stack([item[3] for item in items])  # (J, P)
         rn = nu * r[:, None]  # nu_ij r^j
         num = np.einsum("jp,jp...->p...", rn, eps)
         den = rn.sum(axis=0) if self.responsibility_weighted else np.full(nu.shape[1], r.sum())

@@ -142,3 +142,75 @@ def test_report_rows_compare_with_the_paper_and_say_the_shortfall():
     assert final["value"] == 0.9 and "partial" in final["ours"] and "9 fallback" in final["ours"]
     assert final["shortfall"] == "4.0 points below the paper"
     assert "real" not in rows and "gamma1" not in rows
+
+
+SMALL_POWER = rp.ReproduceConfig(power_rollouts=90, power_batch=30, power_sigma=0.2)
+
+
+class _ExploringRollouts:
+    """Each rollout is carried by one primitive (in turn); it returns the ball and lands
+    |theta_i[0, 0] - 0.3| metres from the target, theta the rollout's explored weights: the
+    library's zero weights start 0.3 m off."""
+
+    def __init__(self, fail_at_batch: int | None = None):
+        self.fail_at_batch, self.batches, self.first_weights = fail_at_batch, 0, []
+
+    def __call__(self, folder, scenario, player, serves, seed, gamma=None, desc="",
+                 weights=None):
+        from tt_drake.referee_rules import return_reward
+
+        if self.fail_at_batch is not None and self.batches == self.fail_at_batch:
+            raise KeyboardInterrupt
+        self.batches += 1
+        alive = np.flatnonzero(np.asarray(gamma) > 0)
+        out = []
+        for k in range(serves):
+            theta = weights(k)
+            if k == 0:
+                self.first_weights.append(theta)
+            i = int(alive[k % len(alive)])
+            d = abs(theta[i, 0, 0] - 0.3)
+            e = _episode(True, return_reward(d), [i], [1.0])
+            e["stroke"]["stimulus"] = np.eye(3, 6)[i].tolist()
+            out.append(e)
+        return out
+
+
+def _power(root, rollouts, monkeypatch):
+    from types import SimpleNamespace
+
+    run = rp.Run(root, SMALL_POWER, quick=False, workers=1, progress=False)
+    lib = run.folder("responsibility") / "library_learned.npz"
+    if not lib.exists():
+        _library(lib)
+        (run.folder("responsibility") / "result.json").write_text(
+            json.dumps({"library": "responsibility/library_learned.npz"}))
+    monkeypatch.setattr(run, "rollouts", rollouts)
+    monkeypatch.setattr(rp, "_learned", lambda run, *args, **kwargs: SimpleNamespace(
+        learned=SimpleNamespace(library="")))
+    return rp.stage_power(run)
+
+
+def test_power_stage_moves_the_weights_towards_better_strokes_and_resumes(tmp_path, monkeypatch):
+    straight = _ExploringRollouts()
+    whole = _power(tmp_path / "whole", straight, monkeypatch)
+    library, _, _ = load_player_library(tmp_path / "whole" / whole["library"])
+    assert library.n_primitives == 3 and whole["pruned"] == 0
+    off = np.abs(library.weights[:, 0, 0] - 0.3)
+    assert np.all(off < 0.2)  # from 0.3 m off
+    curve = np.array(whole["curve"])
+    assert curve[:, 0].tolist() == [30, 60, 90] and np.all(np.diff(curve[:, 1]) > 0)
+    assert curve[:, 5].tolist() == [3, 3, 3]  # every primitive took part in every batch
+    # exploration: each batch explores around that batch's mean, seeded by batch and rollout
+    assert not np.allclose(straight.first_weights[0], straight.first_weights[1])
+
+    interrupted = _ExploringRollouts(fail_at_batch=2)
+    with pytest.raises(KeyboardInterrupt):
+        _power(tmp_path / "resumed", interrupted, monkeypatch)
+    rest = _ExploringRollouts()
+    resumed = _power(tmp_path / "resumed", rest, monkeypatch)
+    assert rest.batches == 1  # only the missing batch ran again
+    np.testing.assert_array_equal(rest.first_weights[0], straight.first_weights[2])
+    assert resumed["curve"] == whole["curve"]
+    again, _, _ = load_player_library(tmp_path / "resumed" / resumed["library"])
+    np.testing.assert_array_equal(again.weights, library.weights)
