@@ -50,9 +50,16 @@ def _init(scenario: Scenario, player: str, make_diagram) -> None:
     _WORKER["diagram"] = make_diagram(scenario, player)
 
 
+def run_one(diagram, seed: int, gamma=None, weights=None) -> EpisodeResult:
+    """``diagram.run`` for one seed; ``weights`` is passed only when given (a diagram of
+    another player needs no primitive weights)."""
+    if weights is None:
+        return diagram.run(seed, gamma=gamma)
+    return diagram.run(seed, gamma=gamma, weights=weights)
+
+
 def _run(task: tuple) -> EpisodeResult:
-    seed, gamma, weights = task
-    return _WORKER["diagram"].run(seed, gamma=gamma, weights=weights)
+    return run_one(_WORKER["diagram"], *task)
 
 
 def run_episodes(scenario: Scenario, player: str, seeds: Iterable[int], workers: int = 1,
@@ -78,7 +85,7 @@ def run_episodes(scenario: Scenario, player: str, seeds: Iterable[int], workers:
     if workers <= 1 or len(head) <= 1:
         diagram = make_diagram(scenario, player)
         for seed, w in zip(itertools.chain(head, seeds), per_seed, strict=False):
-            yield diagram.run(seed, gamma=gamma, weights=w)
+            yield run_one(diagram, seed, gamma, w)
         return
     context = multiprocessing.get_context("fork")
     pool = context.Pool(len(head), initializer=_init, initargs=(scenario, player, make_diagram))

@@ -19,7 +19,7 @@ from collections.abc import Callable, Iterator
 from pydrake.common.yaml import yaml_load_typed
 
 from tt_drake.diagrams.episodes import EpisodeResult
-from tt_drake.diagrams.parallel import ExecutorError, one_blas_thread
+from tt_drake.diagrams.parallel import ExecutorError, one_blas_thread, run_one
 from tt_drake.diagrams.scenario import Scenario, dump_scenario
 
 IN_FLIGHT = 2  # episodes queued per actor
@@ -48,7 +48,7 @@ class _Worker:
     def run(self, seed: int, gamma, weights=None) -> EpisodeResult:
         if self.error is not None:
             raise self.error
-        return self.diagram.run(seed, gamma=gamma, weights=weights)
+        return run_one(self.diagram, seed, gamma, weights)
 
 
 def _get(ray, ref) -> EpisodeResult:
