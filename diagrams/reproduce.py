@@ -20,6 +20,14 @@ Stages, in order (each a function below; :data:`STAGES`):
    weights of the primitives that took part (:mod:`tt_drake.mixture_learning`);
 9. ``final``: the learned player on ``final_serves`` default serves and on ``real`` serves.
 
+Protocols (:data:`PROTOCOLS`, ``--protocol``): ``paper`` is the above; ``hard`` learns from a mix
+of ``spin`` launcher serves and the ``real-train`` and ``rally-train`` pools (the teacher's
+serves and every learning stage's rollouts split evenly among them), and judges the player on
+unseen ``spin`` seeds and the ``real-test`` pool, before learning (``gamma1``) and after
+(``final``) on the same serves, each figure also relative to the oracle teacher's returnable
+ceiling on those serves (``DIR/ceiling``) and with the count of strokes whose hitting stage began
+on an early physical-model prediction.
+
 Checkpoints. ``DIR/config.json`` fixes the run's settings (a DIR holding another run is refused).
 Every rollout stage writes its episodes in chunks of :data:`CHUNK` (``episodes_00000.json`` ...),
 responsibility learning its state after every batch, and every stage ``result.json`` last: a
@@ -111,20 +119,54 @@ def quick_config() -> ReproduceConfig:
         predictor_restarts=0)
 
 
+@dataclass(frozen=True)
+class Protocol:
+    """Which serves a run learns from and is judged on.
+
+    ``train``: the distributions of the teacher's demonstrations and of every learning stage's
+    rollouts (their serves split evenly among them); ``evaluate``: (label, distribution) of the
+    ``final`` stage's two serve sets, with ``final_serves`` / ``final_seed`` and ``real_serves``
+    / ``real_seed``; ``ceiling``: also play every evaluation serve with the oracle teacher
+    (``serve --ceiling``) and give each figure relative to its returnable serves; ``gamma1`` on
+    the evaluation serves instead of its own, so that before and after learning are compared on
+    the same serves."""
+
+    name: str
+    train: tuple[str, ...]
+    evaluate: tuple[tuple[str, str], tuple[str, str]]
+    ceiling: bool = False
+
+
+PROTOCOLS = {
+    # The paper's experiments, on the default launcher (today's run, unchanged).
+    "paper": Protocol("paper", ("default",), (("default", "default"), ("real", "real"))),
+    # Learning has to do something: spinning launcher serves and recorded real serves and rally
+    # balls to learn from, unseen spin seeds and the real serves' test split to be judged on.
+    "hard": Protocol("hard", ("spin", "real-train", "rally-train"),
+                     (("spin", "spin"), ("real-test", "real-test")), ceiling=True),
+}
+
+
 # ----------------------------------------------------------------------------- run folder
 class Run:
     """The run folder: settings, stage folders and their results."""
 
     def __init__(self, out, config: ReproduceConfig, quick: bool, workers: int,
-                 executor: str = "local", progress: bool = True):
+                 executor: str = "local", progress: bool = True, protocol: str = "paper"):
+        if protocol not in PROTOCOLS:
+            raise ReproduceError(f"unknown protocol {protocol!r}; choose one of "
+                                 f"{', '.join(PROTOCOLS)}")
         self.root = Path(out)
         self.config, self.quick, self.workers = config, quick, workers
         self.executor, self.progress = executor, progress
+        self.protocol = PROTOCOLS[protocol]
         self._prepare()
 
     def _prepare(self) -> None:
         settings = {"format": "tt-drake-reproduce", "version": 1, "quick": self.quick,
                     "config": self.config.to_dict()}
+        if self.protocol.name != "paper":  # a paper run's settings are those of earlier runs
+            settings["protocol"] = self.protocol.name
         # Held while this Run lives: a second run into the same folder is refused.
         self._lock = claim_folder(self.root, "config.json", settings, ReproduceError, "run")
 
@@ -208,6 +250,39 @@ class Run:
         bar.close()
         return [e for c in range(n_chunks) for e in chunks[c]]
 
+    def train_rollouts(self, folder: Path, scenario, player: str, serves: int, seed: int,
+                       gamma=None, desc: str = "", weights=None) -> list[dict]:
+        """:meth:`rollouts` on the protocol's training serves: with one training distribution
+        exactly :meth:`rollouts` on it (``folder`` as given); with several, the serves split
+        evenly among them (``folder/<distribution>``, each dealt without repeats), in
+        distribution order; ``weights`` is then indexed over the whole list."""
+        dists = self.protocol.train
+        if len(dists) == 1:
+            return self.rollouts(folder, scenario, player, serves, seed, gamma=gamma, desc=desc,
+                                 weights=weights)
+        out: list[dict] = []
+        for k, dist in enumerate(dists):
+            n = serves // len(dists) + (1 if k < serves % len(dists) else 0)
+            if n == 0:
+                continue
+            offset = len(out)
+            out += self.rollouts(
+                folder / dist, _dealt(scenario, dist, seed), player, n, seed, gamma=gamma,
+                desc=f"{desc or player} ({dist})",
+                weights=None if weights is None else (lambda i, o=offset: weights(o + i)))
+        return out
+
+
+def _dealt(scenario, distribution: str, seed: int):
+    """A copy of ``scenario`` serving ``distribution``; a pool's serves dealt without repeats
+    for the base seed ``seed`` (as ``tt-drake serve`` does)."""
+    import copy
+
+    out = copy.deepcopy(scenario)
+    out.launcher.distribution = distribution
+    out.launcher.run_seed = seed
+    return out
+
 
 def rates(episodes: list[dict]) -> dict:
     """Hit, legal-return and on-target rates and the mean reward of episode dicts."""
@@ -229,7 +304,24 @@ def rates(episodes: list[dict]) -> dict:
                                       for e, c in zip(episodes, carried, strict=True)) / n
         out["momp_target_rate"] = sum(bool(e["on_target"]) and c
                                       for e, c in zip(episodes, carried, strict=True)) / n
+        # Strokes whose hitting stage began on an early physical-model prediction, before the
+        # learned predictor's (GPR) final one.
+        out["early_strokes"] = sum(bool(s.get("early_prediction")) for s in strokes)
     return out
+
+
+def ceiling_rates(episodes: list[dict], oracle: list[dict]) -> dict:
+    """The player's figures relative to the oracle teacher's returnable ceiling on the same
+    serves (``serve --ceiling``): the serves the oracle analytical player returned, and the
+    player's legal returns carried by the primitives among them."""
+    returnable = [bool(o["returned"]) for o in oracle]
+    n = sum(returnable)
+    carried = [bool(e["returned"]) and not (e.get("stroke") or {}).get("fallback", False)
+               for e in episodes]
+    returns = sum(c and r for c, r in zip(carried, returnable, strict=True))
+    return {"returnable_serves": n, "returnable_rate": n / len(oracle) if oracle else 0.0,
+            "returns_of_returnable": returns,
+            "return_rate_of_returnable": returns / n if n else None}
 
 
 def credited_reward(episode: dict) -> float:
@@ -245,13 +337,60 @@ def stage_teacher(run: Run) -> dict:
     from tt_drake.diagrams.collect import collect
 
     c = run.config
-    summary = collect(run.scenario(), "analytical", c.teacher_serves, c.teacher_seed,
-                      str(run.root / "teacher" / "data"), run.workers, progress=run.progress,
-                      executor=run.executor)
-    return {"serves": c.teacher_serves, "seed": c.teacher_seed,
-            "return_rate": summary["return_rate"],
-            "command": f"tt-drake collect --player analytical --serves {c.teacher_serves} "
-                       f"--seed {c.teacher_seed} --out DIR"}
+    dists = run.protocol.train
+    if len(dists) == 1:
+        summary = collect(run.scenario(distribution=dists[0]), "analytical", c.teacher_serves,
+                          c.teacher_seed, str(run.root / "teacher" / "data"), run.workers,
+                          progress=run.progress, executor=run.executor)
+        return {"serves": c.teacher_serves, "seed": c.teacher_seed,
+                "return_rate": summary["return_rate"],
+                "command": f"tt-drake collect --player analytical --serves {c.teacher_serves} "
+                           f"--seed {c.teacher_seed} --out DIR"}
+    # Several training distributions: one dataset each (serves split evenly), then merged.
+    folders, per = [], {}
+    for k, dist in enumerate(dists):
+        n = c.teacher_serves // len(dists) + (1 if k < c.teacher_serves % len(dists) else 0)
+        folder = run.root / "teacher" / f"data_{dist}"
+        summary = collect(_dealt(run.scenario(), dist, c.teacher_seed), "analytical", n,
+                          c.teacher_seed, str(folder), run.workers, progress=run.progress,
+                          executor=run.executor)
+        folders.append(folder)
+        per[dist] = {"serves": n, "return_rate": summary["return_rate"]}
+    merged = _merge_datasets(folders, run.root / "teacher" / "data")
+    return {"serves": c.teacher_serves, "seed": c.teacher_seed, "distributions": per,
+            "return_rate": merged,
+            "command": f"tt-drake collect --player analytical --distribution D --serves N "
+                       f"--seed {c.teacher_seed} --out DIR, D in {', '.join(dists)}"}
+
+
+def _merge_datasets(folders: list[Path], out: Path) -> float:
+    """The teacher datasets in ``folders`` as one dataset in ``out`` (one chunk, serves in
+    folder order, re-indexed) that ``tt-drake train`` reads; returns its legal-return rate."""
+    from tt_drake.artefacts import save_artefact
+    from tt_drake.diagrams.collect import KIND, MANIFEST, load_dataset
+
+    datasets = [load_dataset(f) for f in folders]
+    arrays: dict[str, list] = {}
+    offset = 0
+    for data in datasets:
+        n = len(data["returned"])
+        for key, value in data.items():
+            if key == "manifest":
+                continue
+            if key in ("index", "trajectory_serve"):
+                value = value + offset
+            arrays.setdefault(key, []).append(value)
+        offset += n
+    merged = {key: np.concatenate(parts) for key, parts in arrays.items()}
+    first = datasets[0]["manifest"]
+    manifest = {**first, "distribution": "+".join(d["manifest"]["distribution"]
+                                                    for d in datasets),
+                "serves": offset, "chunk_size": max(offset, 1),
+                "sources": [portable_path(f, out.parent) for f in folders]}
+    out.mkdir(parents=True, exist_ok=True)
+    save_artefact(out / "chunk_00000.npz", KIND, merged, {"chunk": 0, "merged": True})
+    write_json_atomic(out / MANIFEST, manifest)
+    return float(merged["returned"].mean())
 
 
 def stage_predictor(run: Run) -> dict:
@@ -309,9 +448,9 @@ def stage_crkr(run: Run) -> dict:
                 fit_crkr(*pairs, model, {"scenario": run.scenario().name,
                                          "hitting_y": PLANES.hitting_y,
                                          "policy_iteration": k, "source": f"crkr_{k - 1}"})
-        episodes = run.rollouts(folder / f"iteration_{k}", run.scenario(crkr=str(model),
-                                predictor=predictor), "crkr", c.crkr_serves, c.crkr_seed + k,
-                                desc=f"CrKR iteration {k}")
+        episodes = run.train_rollouts(folder / f"iteration_{k}", run.scenario(
+            crkr=str(model), predictor=predictor), "crkr", c.crkr_serves, c.crkr_seed + k,
+            desc=f"CrKR iteration {k}")
         iterations.append({"iteration": k, "model": run.rel(model), "seed": c.crkr_seed + k,
                            **rates(episodes), "episodes": episodes})
         run.say(f"  CrKR iteration {k}: return {iterations[-1]['return_rate']:.1%}, target "
@@ -357,9 +496,9 @@ def stage_single(run: Run) -> dict:
     for i in chosen:
         gamma = np.zeros(n)
         gamma[i] = 1.0
-        episodes = run.rollouts(run.folder("single") / f"primitive_{i:03d}", _learned(run),
-                                "momp", c.single_serves, c.single_seed, gamma=gamma,
-                                desc=f"primitive {i} alone")
+        episodes = run.train_rollouts(run.folder("single") / f"primitive_{i:03d}",
+                                      _learned(run), "momp", c.single_serves, c.single_seed,
+                                      gamma=gamma, desc=f"primitive {i} alone")
         rows.append({"primitive": int(i), **rates(episodes)})
     returns = [r["momp_return_rate"] for r in rows]
     return {"primitives": rows, "min_return": min(returns), "max_return": max(returns),
@@ -368,6 +507,8 @@ def stage_single(run: Run) -> dict:
 
 def stage_gamma1(run: Run) -> dict:
     c = run.config
+    if run.protocol.ceiling:
+        return _gamma1_on_evaluation_serves(run)
     out = {}
     for configuration in ("crkr", "analytical"):
         episodes = run.rollouts(run.folder("gamma1") / configuration,
@@ -378,6 +519,42 @@ def stage_gamma1(run: Run) -> dict:
                 f"{out[configuration]['momp_return_rate']:.1%} by the primitives "
                 f"({out[configuration]['return_rate']:.1%} with fallbacks)")
     return {**out, "seed": c.gamma1_seed, "serves": c.gamma1_serves}
+
+
+def _evaluation_sets(run: Run):
+    """(label, distribution, serves, seed) of the protocol's two evaluation serve sets."""
+    c = run.config
+    (a, da), (b, db) = run.protocol.evaluate
+    return ((a, da, c.final_serves, c.final_seed), (b, db, c.real_serves, c.real_seed))
+
+
+def _evaluate(run: Run, folder: Path, scenario, label: str, dist: str, serves: int, seed: int,
+              desc: str) -> tuple[dict, list[dict]]:
+    """The learned player on one evaluation set; with the protocol's ceiling, also relative to
+    the oracle teacher's returnable serves (played once per run, in ``DIR/ceiling/<label>``)."""
+    dealt = _dealt(scenario, dist, seed) if run.protocol.ceiling else scenario
+    episodes = run.rollouts(folder, dealt, "momp", serves, seed, desc=desc)
+    out = {**rates(episodes), "seed": seed, "distribution": dist}
+    if run.protocol.ceiling:
+        oracle_scenario = _dealt(run.scenario(), dist, seed)
+        oracle_scenario.perception = "oracle"
+        oracle = run.rollouts(run.folder("ceiling") / label, oracle_scenario, "analytical",
+                              serves, seed, desc=f"oracle teacher ({label} serves)")
+        out.update(ceiling_rates(episodes, oracle))
+    return out, episodes
+
+
+def _gamma1_on_evaluation_serves(run: Run) -> dict:
+    """The mixture with gamma = 1 (CrKR) on the evaluation serves the final player meets: the
+    hard protocol's "before learning"."""
+    out = {}
+    for label, dist, serves, seed in _evaluation_sets(run):
+        out[label], _ = _evaluate(run, run.folder("gamma1") / label, _learned(run), label, dist,
+                                  serves, seed, f"MoMP gamma=1 ({label} serves)")
+        run.say(f"  MoMP gamma = 1, {label}: return {out[label]['momp_return_rate']:.1%} by "
+                f"the primitives")
+    return {"evaluation": out, "seed": run.config.final_seed,
+            "serves": run.config.final_serves}
 
 
 def stage_responsibility(run: Run) -> dict:
@@ -405,9 +582,9 @@ def stage_responsibility(run: Run) -> dict:
     for b in range(int(state["batches"]), batches):
         start = b * c.responsibility_batch
         size = min(c.responsibility_batch, c.responsibility_rollouts - start)
-        episodes = run.rollouts(folder / f"batch_{b:04d}", _learned(run), "momp", size,
-                                c.responsibility_seed + b, gamma=state["gamma"],
-                                desc=f"responsibility batch {b + 1}/{batches}")
+        episodes = run.train_rollouts(folder / f"batch_{b:04d}", _learned(run), "momp", size,
+                                      c.responsibility_seed + b, gamma=state["gamma"],
+                                      desc=f"responsibility batch {b + 1}/{batches}")
         s, cnt, gamma = state["s"], state["n"], state["gamma"]
         for e in episodes:
             stroke = e.get("stroke")
@@ -496,9 +673,9 @@ def stage_power(run: Run) -> dict:
             return explored_weights(mean, learner.sigma, pruned,
                                     np.random.default_rng([c.power_seed, b, i]))
 
-        episodes = run.rollouts(folder / f"batch_{b:04d}", scenario, "momp", size,
-                                c.power_seed + b, gamma=gamma, weights=explored,
-                                desc=f"PoWER batch {b + 1}/{batches}")
+        episodes = run.train_rollouts(folder / f"batch_{b:04d}", scenario, "momp", size,
+                                      c.power_seed + b, gamma=gamma, weights=explored,
+                                      desc=f"PoWER batch {b + 1}/{batches}")
         for i, e in enumerate(episodes):
             stroke = e.get("stroke")
             if not stroke or not stroke["primitives"]:
@@ -549,18 +726,18 @@ def _save_power_library(run: Run, source: str, learner, rollouts: int, out) -> N
 
 
 def stage_final(run: Run) -> dict:
-    c = run.config
     library = (run.result("power") or run.result("responsibility"))["library"]
     out = {"library": library}
-    for name, distribution, serves, seed in (("default", "default", c.final_serves, c.final_seed),
-                                             ("real", "real", c.real_serves, c.real_seed)):
+    for name, distribution, serves, seed in _evaluation_sets(run):
         scenario = _learned(run, distribution=distribution)
         scenario.learned.library = str(run.path(library))
-        episodes = run.rollouts(run.folder("final") / name, scenario, "momp", serves, seed,
-                                desc=f"final player ({name} serves)")
+        out[name], episodes = _evaluate(run, run.folder("final") / name, scenario, name,
+                                        distribution, serves, seed,
+                                        f"final player ({name} serves)")
+        if not run.protocol.ceiling:  # the paper's rows as they were
+            out[name].pop("distribution")
         landings = [e["landing"] for e in episodes if e["landing"] is not None]
         np.save(run.folder("final") / f"landings_{name}.npy", np.array(landings).reshape(-1, 2))
-        out[name] = {**rates(episodes), "seed": seed}
         run.say(f"  final player, {name}: return {out[name]['momp_return_rate']:.1%} by the "
                 f"primitives ({out[name]['return_rate']:.1%} with fallbacks)")
     out["artefacts"] = _export_artefacts(run, library)
@@ -576,7 +753,9 @@ def _export_artefacts(run: Run, library: str) -> dict:
     for name, source in sources.items():
         shutil.copyfile(run.path(source), folder / f".{name}.tmp")
         (folder / f".{name}.tmp").replace(folder / name)
-    provenance = {"command": "tt-drake reproduce" + (" --quick" if run.quick else ""),
+    command = "tt-drake reproduce" + (" --quick" if run.quick else "") + (
+        f" --protocol {run.protocol.name}" if run.protocol.name != "paper" else "")
+    provenance = {"command": command, "protocol": run.protocol.name,
                   "config": run.config.to_dict(), **run_provenance(),
                   "sources": {name: run.rel(run.path(source)) for name, source in sources.items()}}
     write_json_atomic(folder / "provenance.json", provenance)
@@ -590,8 +769,10 @@ STAGE_FUNCTIONS = {"teacher": stage_teacher, "predictor": stage_predictor,
 
 
 def reproduce(out, quick: bool = False, workers: int | None = None, executor: str = "local",
-              progress: bool = True, config: ReproduceConfig | None = None) -> dict:
-    """Run the missing stages, then write the report; returns the report dict."""
+              progress: bool = True, config: ReproduceConfig | None = None,
+              protocol: str = "paper") -> dict:
+    """Run the missing stages, then write the report; returns the report dict. ``protocol``:
+    a name in :data:`PROTOCOLS`."""
     from tt_drake.diagrams.inputs import check_inputs
     from tt_drake.diagrams.parallel import EXECUTORS, default_workers, executor_session
     from tt_drake.diagrams.report import write_report
@@ -600,11 +781,16 @@ def reproduce(out, quick: bool = False, workers: int | None = None, executor: st
     if executor not in EXECUTORS:
         raise ReproduceError(f"unknown executor {executor!r}; choose one of "
                              f"{', '.join(EXECUTORS)}")
+    if protocol not in PROTOCOLS:
+        raise ReproduceError(f"unknown protocol {protocol!r}; choose one of "
+                             f"{', '.join(PROTOCOLS)}")
     config = config or (quick_config() if quick else ReproduceConfig())
     # Every file a stage will read, checked before the first stage: the final stage serves real
     # ball states (serves.json) after hours of the others.
-    check_inputs(load_scenario("default"), distributions=("real",))
-    run = Run(out, config, quick, workers or default_workers(), executor, progress)
+    used = {*PROTOCOLS[protocol].train, *(d for _, d in PROTOCOLS[protocol].evaluate)}
+    check_inputs(load_scenario("default"),
+                 distributions=("real",) if any(d.startswith("real") for d in used) else ())
+    run = Run(out, config, quick, workers or default_workers(), executor, progress, protocol)
     with executor_session(executor, run.workers):
         for k, stage in enumerate(STAGES, 1):
             if run.result(stage) is not None:
@@ -617,4 +803,5 @@ def reproduce(out, quick: bool = False, workers: int | None = None, executor: st
     return write_report(run)
 
 
-__all__ = ["reproduce", "ReproduceConfig", "quick_config", "ReproduceError", "STAGES", "rates"]
+__all__ = ["reproduce", "ReproduceConfig", "quick_config", "ReproduceError", "STAGES", "rates",
+           "PROTOCOLS", "Protocol", "ceiling_rates"]

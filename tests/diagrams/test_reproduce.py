@@ -76,7 +76,8 @@ class _Rollouts:
     def __init__(self, fail_at_batch: int | None = None):
         self.fail_at_batch, self.batches, self.gammas = fail_at_batch, 0, []
 
-    def __call__(self, folder, scenario, player, serves, seed, gamma=None, desc=""):
+    def __call__(self, folder, scenario, player, serves, seed, gamma=None, desc="",
+                 weights=None):
         if self.fail_at_batch is not None and self.batches == self.fail_at_batch:
             raise KeyboardInterrupt
         self.batches += 1
