@@ -215,3 +215,83 @@ def test_power_stage_moves_the_weights_towards_better_strokes_and_resumes(tmp_pa
     assert resumed["curve"] == whole["curve"]
     again, _, _ = load_player_library(tmp_path / "resumed" / resumed["library"])
     np.testing.assert_array_equal(again.weights, library.weights)
+
+
+def test_hard_protocol_splits_the_training_serves_and_deals_each_pool_without_repeats(tmp_path):
+    from types import SimpleNamespace
+
+    run = rp.Run(tmp_path / "hard", SMALL, quick=False, workers=1, progress=False,
+                 protocol="hard")
+    calls = []
+
+    def rollouts(folder, scenario, player, serves, seed, gamma=None, desc="", weights=None):
+        calls.append((folder.name, scenario.launcher.distribution, scenario.launcher.run_seed,
+                      serves, seed))
+        return [{"i": weights(i) if weights else None} for i in range(serves)]
+
+    run.rollouts = rollouts
+    scenario = SimpleNamespace(launcher=SimpleNamespace(distribution="default", run_seed=-1))
+    out = run.train_rollouts(tmp_path / "stage", scenario, "momp", 8, 50,
+                             weights=lambda i: 100 + i)
+    assert calls == [("spin", "spin", 50, 3, 50), ("real-train", "real-train", 50, 3, 50),
+                     ("rally-train", "rally-train", 50, 2, 50)]
+    # the rollout function's weights are indexed over the whole list, in distribution order
+    assert [e["i"] for e in out] == list(range(100, 108))
+    assert scenario.launcher.distribution == "default"  # the caller's scenario is not changed
+    # the paper protocol: one distribution, the folder as given
+    paper = rp.Run(tmp_path / "paper", SMALL, quick=False, workers=1, progress=False)
+    paper.rollouts = rollouts
+    calls.clear()
+    paper.train_rollouts(tmp_path / "stage", scenario, "momp", 8, 50)
+    assert calls == [("stage", "default", -1, 8, 50)]
+
+
+def test_a_hard_run_is_kept_apart_from_a_paper_run_and_a_bad_protocol_is_refused(tmp_path,
+                                                                                  capsys):
+    rp.Run(tmp_path / "a", SMALL, quick=False, workers=1, progress=False)
+    with pytest.raises(rp.ReproduceError, match="another run"):
+        rp.Run(tmp_path / "a", SMALL, quick=False, workers=1, progress=False, protocol="hard")
+    with pytest.raises(rp.ReproduceError, match="unknown protocol 'easy'"):
+        rp.reproduce(tmp_path / "b", protocol="easy")
+    assert not (tmp_path / "b").exists()
+    with pytest.raises(SystemExit) as exit_:
+        main(["reproduce", "--out", str(tmp_path / "c"), "--protocol", "easy"])
+    assert exit_.value.code == 2 and "--protocol" in capsys.readouterr().err
+    assert not (tmp_path / "c").exists()
+
+
+def test_ceiling_rates_count_the_primitives_returns_among_the_returnable_serves():
+    episodes = [_episode(True, 1.0, [0], [1.0]), _episode(True, 0.9, [0], [1.0], fallback=True),
+                _episode(True, 0.8, [0], [1.0]), _episode(False, 0.0, [0], [1.0])]
+    oracle = [{"returned": True}, {"returned": True}, {"returned": False},
+              {"returned": True}]
+    r = rp.ceiling_rates(episodes, oracle)
+    # serve 2 is returned but not returnable by the oracle: it is outside the ceiling's count
+    assert r == {"returnable_serves": 3, "returnable_rate": 0.75, "returns_of_returnable": 1,
+                 "return_rate_of_returnable": pytest.approx(1 / 3)}
+    assert rp.ceiling_rates(episodes, [{"returned": False}] * 4)["return_rate_of_returnable"] \
+        is None
+
+
+def test_rates_count_the_strokes_carried_by_an_early_prediction():
+    episodes = [_episode(True, 1.0, [0], [1.0]) for _ in range(3)]
+    episodes[1]["stroke"]["early_prediction"] = True
+    assert rp.rates(episodes)["early_strokes"] == 1
+
+
+def test_hard_report_rows_give_the_ceiling_and_the_early_strokes():
+    from tt_drake.diagrams.report import table_rows
+
+    r = {"return_rate": 0.5, "target_rate": 0.3, "momp_return_rate": 0.4,
+         "momp_target_rate": 0.25, "serves": 10, "seed": 7, "distribution": "real-test",
+         "returnable_serves": 5, "returns_of_returnable": 4, "return_rate_of_returnable": 0.8,
+         "returnable_rate": 0.5, "early_strokes": 2}
+    rows = table_rows({"gamma1": {"evaluation": {"real-test": r}},
+                       "final": {"library": "power/library_power.npz", "real-test": r}})
+    before, after = rows
+    assert before["key"] == "hard_gamma1" and "real-test serves" in before["experiment"]
+    assert after["key"] == "hard_final" and "power/library_power.npz" in after["command"]
+    for row in rows:
+        assert "4 of the 5 serves the oracle teacher returns = 80.0 % of the ceiling" in \
+            row["ours"]
+        assert "2 strokes began on an early physical-model prediction" in row["ours"]
