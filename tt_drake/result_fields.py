@@ -66,6 +66,8 @@ EPISODE_FIELDS: dict = {
         "replans": _scalar("how many times the stroke was planned"),
         "fallback": _scalar("the primitives' plan left the limits: the teacher's quintics "
                             "carried the stroke"),
+        "early_prediction": _scalar("the hitting stage began before the predictor's final "
+                                    "(GPR) prediction, on an early physical-model one"),
     },
 }
 
