@@ -278,9 +278,17 @@ def _dealt(scenario, distribution: str, seed: int):
     for the base seed ``seed`` (as ``tt-drake serve`` does)."""
     import copy
 
+    from tt_drake.serves import POOLS, ServeSampler, parse_distribution
+
     out = copy.deepcopy(scenario)
     out.launcher.distribution = distribution
     out.launcher.run_seed = seed
+    if parse_distribution(distribution)[0] in POOLS:
+        # The pool's balls are flown once, here, and the worker processes forked later inherit
+        # them (tt_drake.serves caches a pool per process).
+        c = out.launcher
+        ServeSampler(distribution, c.spin_max, c.real_serves or None,
+                     rally_path=c.rallies or None).pool()
     return out
 
 

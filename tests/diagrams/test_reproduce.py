@@ -217,9 +217,14 @@ def test_power_stage_moves_the_weights_towards_better_strokes_and_resumes(tmp_pa
     np.testing.assert_array_equal(again.weights, library.weights)
 
 
-def test_hard_protocol_splits_the_training_serves_and_deals_each_pool_without_repeats(tmp_path):
+def test_hard_protocol_splits_the_training_serves_and_deals_each_pool_without_repeats(
+        tmp_path, monkeypatch):
     from types import SimpleNamespace
 
+    from tt_drake.serves import ServeSampler
+
+    warmed = []  # pools are flown once in this process, before any worker forks
+    monkeypatch.setattr(ServeSampler, "pool", lambda self: warmed.append(self.distribution))
     run = rp.Run(tmp_path / "hard", SMALL, quick=False, workers=1, progress=False,
                  protocol="hard")
     calls = []
@@ -230,13 +235,16 @@ def test_hard_protocol_splits_the_training_serves_and_deals_each_pool_without_re
         return [{"i": weights(i) if weights else None} for i in range(serves)]
 
     run.rollouts = rollouts
-    scenario = SimpleNamespace(launcher=SimpleNamespace(distribution="default", run_seed=-1))
+    scenario = SimpleNamespace(launcher=SimpleNamespace(distribution="default", run_seed=-1,
+                                                        spin_max=0.0, real_serves="",
+                                                        rallies=""))
     out = run.train_rollouts(tmp_path / "stage", scenario, "momp", 8, 50,
                              weights=lambda i: 100 + i)
     assert calls == [("spin", "spin", 50, 3, 50), ("real-train", "real-train", 50, 3, 50),
                      ("rally-train", "rally-train", 50, 2, 50)]
     # the rollout function's weights are indexed over the whole list, in distribution order
     assert [e["i"] for e in out] == list(range(100, 108))
+    assert warmed == ["real-train", "rally-train"]
     assert scenario.launcher.distribution == "default"  # the caller's scenario is not changed
     # the paper protocol: one distribution, the folder as given
     paper = rp.Run(tmp_path / "paper", SMALL, quick=False, workers=1, progress=False)
