@@ -87,6 +87,9 @@ def _row(key: str, ours: str, value, serves, command: str, label: str = "") -> d
 def table_rows(results: dict) -> list[dict]:
     """Our figure for every paper row whose stage has finished."""
     rows = []
+    # A hard-protocol run splits the learning stages' serves among several distributions.
+    mix = (results.get("teacher") or {}).get("distributions")
+    split = f" (serves split among {', '.join(mix)})" if mix else ""
     pred = results.get("predictor")
     if pred:
         rows.append(_row("gpr_nmse", f"{pred['max_nmse']:.4f}", pred["max_nmse"],
@@ -98,13 +101,13 @@ def table_rows(results: dict) -> list[dict]:
                              f"{_pct(it['return_rate'])} / {_pct(it['target_rate'])}",
                              it["return_rate"], it["serves"],
                              f"--player crkr --crkr DIR/crkr/crkr_{it['iteration']}.npz --seed "
-                             f"{it['seed']}"))
+                             f"{it['seed']}{split}"))
     single = results.get("single")
     if single:
         rows.append(_row("single", f"{_pct(single['min_return'])} - "
                                    f"{_pct(single['max_return'])} ({len(single['primitives'])} "
                                    "primitives)", None, single["serves"],
-                         f"gamma one-hot, --seed {single['seed']}"))
+                         f"gamma one-hot, --seed {single['seed']}{split}"))
     g1 = results.get("gamma1")
     if g1 and "evaluation" in g1:  # hard protocol: on the evaluation serves
         for label, r in g1["evaluation"].items():
@@ -123,7 +126,7 @@ def table_rows(results: dict) -> list[dict]:
         rows.append(_row("pruned", f"{_pct(resp['pruned_share'])} ({_pct(earlier)})",
                          resp["pruned_share"], resp["rollouts"],
                          f"{resp['rollouts']} rollouts in batches of {resp['batch']}, --seed "
-                         f"{resp['seed']}+batch"))
+                         f"{resp['seed']}+batch{split}"))
     power = results.get("power")
     if power and power["curve"]:
         curve = np.array(power["curve"])
@@ -131,7 +134,7 @@ def table_rows(results: dict) -> list[dict]:
                                   f"-> {_pct(curve[-1, 2])}); {power['pruned']} of "
                                   f"{power['primitives']} pruned; weights moved "
                                   f"{100.0 * curve[-1, 6]:.2f} % (relative norm)",
-                         curve[-1, 1], power["rollouts"], power["command"]))
+                         curve[-1, 1], power["rollouts"], power["command"] + split))
     final = results.get("final") or results.get("final_partial")
     library = (results.get("final") or {}).get("library") or (
         (power or {}).get("library") or "responsibility/library_learned.npz")

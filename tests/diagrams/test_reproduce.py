@@ -297,6 +297,10 @@ def test_hard_report_rows_give_the_ceiling_and_the_early_strokes():
     rows = table_rows({"gamma1": {"evaluation": {"real-test": r}},
                        "final": {"library": "power/library_power.npz", "real-test": r}})
     before, after = rows
+    teacher = {"distributions": {"spin": {}, "real-train": {}}}
+    single = {"min_return": 0.1, "max_return": 0.2, "primitives": [1], "serves": 5, "seed": 30}
+    (mixed,) = table_rows({"teacher": teacher, "single": single})
+    assert mixed["command"].endswith("(serves split among spin, real-train)")
     assert before["key"] == "hard_gamma1" and "real-test serves" in before["experiment"]
     assert after["key"] == "hard_final" and "power/library_power.npz" in after["command"]
     for row in rows:
