@@ -14,6 +14,7 @@
                    [--configuration crkr|analytical] ...   (no FILE: the shipped artefacts)
     tt-drake serve --player crkr [--crkr FILE --predictor FILE] ...  (CrKR + teacher's quintics)
     tt-drake reproduce --out DIR [--quick] [--workers N] [--executor local|ray]
+                       [--protocol paper|hard]
     tt-drake --version
 
 Bad input (an unknown or malformed scenario field, a missing model or data file, an unknown
@@ -280,6 +281,10 @@ def build_parser() -> argparse.ArgumentParser:
                      help="parallel worker processes (default: all cores)")
     rep.add_argument("--executor", default="local", type=_one_of("executor", EXECUTOR_NAMES),
                      choices=EXECUTOR_NAMES, help="where rollouts run")
+    rep.add_argument("--protocol", default="paper", choices=("paper", "hard"),
+                     help="paper: the paper's experiments on default serves; hard: learn from "
+                          "spin and recorded serves, judged on unseen ones against the oracle "
+                          "teacher's ceiling (docs/reproducing.md)")
     rep.add_argument("--quiet", action="store_true", help="no progress output")
     return parser
 
@@ -462,7 +467,7 @@ def _reproduce(args) -> None:
     from tt_drake.diagrams.reproduce import reproduce
 
     report = reproduce(args.out, args.quick, args.workers, args.executor,
-                       progress=not args.quiet)
+                       progress=not args.quiet, protocol=args.protocol)
     for row in report["table"]:
         print(f"{row['experiment']}: paper {row['paper']}, ours {row['ours']}")
     print(f"wrote {args.out}/report.md and {args.out}/report.json")

@@ -355,6 +355,15 @@ class ServeDiagram:
         for name in ("analytical_player", "momp_player"):
             if builder.HasSubsystemNamed(name):
                 self.player = builder.GetSubsystemByName(name)
+        # When the learned player's hitting stage began, was the prediction out the GPR's final
+        # one or an early physical-model one? Logged at the referee's rate (no new event time).
+        self.final_logger = None
+        if (builder.HasSubsystemNamed("momp_player")
+                and builder.HasSubsystemNamed("hitting_point_predictor")):
+            self.final_logger = builder.AddNamedSystem("prediction_final_logger",
+                                                       VectorLogSink(1, period))
+            builder.Connect(builder.GetSubsystemByName("hitting_point_predictor")
+                            .GetOutputPort("final"), self.final_logger.get_input_port())
         self.recorder = None
         if record:
             from tt_drake.diagrams.demonstrations import DemonstrationRecorder
@@ -427,12 +436,14 @@ class ServeDiagram:
         """The momp player's primitive library (None for other players)."""
         return getattr(self.player, "library", None)
 
-    def run(self, seed: int, gamma=None) -> EpisodeResult:
+    def run(self, seed: int, gamma=None, weights=None) -> EpisodeResult:
         """Simulate one serve episode from ``seed``, from t = 0 (a recording places it on its
         own timeline afterwards). ``gamma``: the momp player's responsibilities for this episode
-        (default: the loaded library's)."""
+        (default: the loaded library's); ``weights``: its hitting primitives' weights ``(P, D,
+        B)`` for this episode (PoWER's explored weights; default: the loaded library's)."""
         wall = time.perf_counter()
         self._set_gamma(gamma)
+        self._set_weights(weights)
         self.context.SetTimeStateAndParametersFrom(self._initial)
         # A fresh integrator: its step-size history would make an episode depend on the ones
         # before it (a landing point moved 7e-7 m) and on a recording's extension of them.
@@ -475,6 +486,8 @@ class ServeDiagram:
         if self.player is not None:
             stroke = stroke_summary(self.player.GetOutputPort("stroke").Eval(
                 self.player.GetMyContextFromRoot(self.context)))
+            if stroke is not None and self.final_logger is not None:
+                stroke["early_prediction"] = self._hit_on_early_prediction()
         return EpisodeResult(seed, list(serve.launch_state), list(crossing), duration, outcome,
                              time.perf_counter() - wall, path, arm, record, stroke)
 
@@ -514,6 +527,32 @@ class ServeDiagram:
                               "all zero")
         library.gamma = g.copy()
 
+    def _hit_on_early_prediction(self) -> bool:
+        """Whether the learned player's hitting stage began before the predictor's final (GPR)
+        prediction was out, i.e. on an early physical-model one (to the referee's period)."""
+        from tt_drake.stages import HITTING
+
+        plan = self.player.player_state(self.player.GetMyContextFromRoot(self.context)).plan
+        start = next((seg.t0 for stage, seg in plan.segments if stage == HITTING), None)
+        if start is None:
+            return False
+        log = self.final_logger.FindLog(self.context)
+        before = log.sample_times() <= start + 1e-9
+        return not bool(np.any(log.data()[0, before] > 0.5))
+
+    def _set_weights(self, weights) -> None:
+        library = self.library
+        if library is None:
+            if weights is not None:
+                raise PlayerError("primitive weights apply to the momp player only")
+            return
+        if not hasattr(self, "_weights0"):
+            self._weights0 = library.weights.copy()
+        w = self._weights0 if weights is None else np.asarray(weights, dtype=float)
+        if w.shape != self._weights0.shape or not np.all(np.isfinite(w)):
+            raise PlayerError(f"primitive weights must be {self._weights0.shape} finite values")
+        library.weights = w.copy()
+
     def _beliefs(self) -> dict:
         """Estimated ball path and predicted hitting points (with their times) of the episode."""
         out = {}
@@ -536,6 +575,8 @@ class ServeDiagram:
             loggers.append(self.status_logger)
         if self.controller is not None:
             loggers += [self.arm_logger, self.torque_logger]
+        if self.final_logger is not None:
+            loggers.append(self.final_logger)
         return loggers + self.setpoint_logs
 
     def setpoints(self) -> tuple[np.ndarray, np.ndarray]:

@@ -25,7 +25,7 @@ it and the rest of the episode, and returns the paper's reward; ``terminated`` i
   theta_dot_hit += a[7:] * max_velocity_offset (rad/s, default 1.0), clipped to the joint limits.
   An action of zeros plays the analytical player's stroke, bit for bit.
 - reward: the referee's (:mod:`tt_drake.referee_rules`): 0 missed, 0.2 hit but not returned,
-  0.6 + 0.4 exp(-d^2 / (2 sigma^2)) for a legal return landing d from the target, at most 0.1 if
+  0.3 + 0.7 exp(-d^2 / (2 sigma^2)) for a legal return landing d from the target, at most 0.1 if
   the robot touched the table.
 - ``info["is_success"]``: the return landed on the opponent's half within ``target_radius``
   (0.2 m) of the target (fancy_gym's definition); ``info["outcome"]`` the referee's verdict.

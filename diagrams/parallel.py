@@ -50,37 +50,49 @@ def _init(scenario: Scenario, player: str, make_diagram) -> None:
     _WORKER["diagram"] = make_diagram(scenario, player)
 
 
+def run_one(diagram, seed: int, gamma=None, weights=None) -> EpisodeResult:
+    """``diagram.run`` for one seed; ``weights`` is passed only when given (a diagram of
+    another player needs no primitive weights)."""
+    if weights is None:
+        return diagram.run(seed, gamma=gamma)
+    return diagram.run(seed, gamma=gamma, weights=weights)
+
+
 def _run(task: tuple) -> EpisodeResult:
-    seed, gamma = task
-    return _WORKER["diagram"].run(seed, gamma=gamma)
+    return run_one(_WORKER["diagram"], *task)
 
 
 def run_episodes(scenario: Scenario, player: str, seeds: Iterable[int], workers: int = 1,
                  make_diagram: Callable = ServeDiagram, gamma=None,
-                 executor: str = "local") -> Iterator[EpisodeResult]:
+                 executor: str = "local", weights: Iterable | None = None
+                 ) -> Iterator[EpisodeResult]:
     """Yield the episodes of ``seeds`` in order (as they finish, in order). ``gamma``: the momp
-    player's responsibilities for all of them (default: its library's). ``executor``: ``local``
-    (forked processes) or another name in :data:`EXECUTORS`."""
+    player's responsibilities for all of them (default: its library's). ``weights``: the momp
+    player's primitive weights for each seed in turn (PoWER's exploration; default: its
+    library's), taken as the seeds are. ``executor``: ``local`` (forked processes) or another
+    name in :data:`EXECUTORS`."""
     if executor not in EXECUTORS:
         raise ExecutorError(f"unknown executor {executor!r}; choose one of {', '.join(EXECUTORS)}")
     if executor != "local":
         yield from EXECUTORS[executor](scenario, player, list(seeds), workers, make_diagram,
-                                       gamma)
+                                       gamma, weights)
         return
     # Seeds are streamed (a generator is never listed): only the first ``workers`` are looked
     # at to size the pool, and imap takes the rest as the workers need them.
     seeds = iter(seeds)
     head = list(itertools.islice(seeds, max(1, workers)))
+    per_seed = itertools.repeat(None) if weights is None else iter(weights)
     if workers <= 1 or len(head) <= 1:
         diagram = make_diagram(scenario, player)
-        for seed in itertools.chain(head, seeds):
-            yield diagram.run(seed, gamma=gamma)
+        for seed, w in zip(itertools.chain(head, seeds), per_seed, strict=False):
+            yield run_one(diagram, seed, gamma, w)
         return
     context = multiprocessing.get_context("fork")
     pool = context.Pool(len(head), initializer=_init, initargs=(scenario, player, make_diagram))
     try:
-        yield from pool.imap(_run, ((seed, gamma) for seed in itertools.chain(head, seeds)),
-                             chunksize=1)
+        tasks = ((seed, gamma, w) for seed, w in
+                 zip(itertools.chain(head, seeds), per_seed, strict=False))
+        yield from pool.imap(_run, tasks, chunksize=1)
         pool.close()
     finally:
         pool.terminate()
@@ -94,7 +106,7 @@ def _run_ray(*args) -> Iterator[EpisodeResult]:
 
 
 # Executors other than ``local``: name -> function(scenario, player, seeds, workers, make_diagram,
-# gamma) yielding EpisodeResults in seed order.
+# gamma, weights) yielding EpisodeResults in seed order.
 EXECUTORS: dict[str, Callable] = {"local": None, "ray": _run_ray}
 
 

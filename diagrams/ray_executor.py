@@ -11,6 +11,7 @@ it initialised itself. The cluster's nodes need ``tt-drake`` installed.
 """
 
 import contextlib
+import itertools
 import os
 from collections import deque
 from collections.abc import Callable, Iterator
@@ -18,7 +19,7 @@ from collections.abc import Callable, Iterator
 from pydrake.common.yaml import yaml_load_typed
 
 from tt_drake.diagrams.episodes import EpisodeResult
-from tt_drake.diagrams.parallel import ExecutorError, one_blas_thread
+from tt_drake.diagrams.parallel import ExecutorError, one_blas_thread, run_one
 from tt_drake.diagrams.scenario import Scenario, dump_scenario
 
 IN_FLIGHT = 2  # episodes queued per actor
@@ -44,10 +45,10 @@ class _Worker:
         except Exception as err:  # raised by run: a failed constructor would lose its type
             self.error = err
 
-    def run(self, seed: int, gamma) -> EpisodeResult:
+    def run(self, seed: int, gamma, weights=None) -> EpisodeResult:
         if self.error is not None:
             raise self.error
-        return self.diagram.run(seed, gamma=gamma)
+        return run_one(self.diagram, seed, gamma, weights)
 
 
 def _get(ray, ref) -> EpisodeResult:
@@ -78,17 +79,19 @@ def ray_session(workers: int):
 
 
 def run_ray(scenario: Scenario, player: str, seeds: list[int], workers: int,
-            make_diagram: Callable, gamma) -> Iterator[EpisodeResult]:
+            make_diagram: Callable, gamma, weights=None) -> Iterator[EpisodeResult]:
     """Yield the episodes of ``seeds`` in order, run on ``min(workers, len(seeds))`` actors."""
     seeds = list(seeds)
     if not seeds:
         return
     workers = max(1, workers)
     with ray_session(workers) as ray:
-        yield from _run_actors(ray, scenario, player, seeds, workers, make_diagram, gamma)
+        yield from _run_actors(ray, scenario, player, seeds, workers, make_diagram, gamma,
+                               weights)
 
 
-def _run_actors(ray, scenario, player, seeds, workers, make_diagram, gamma):
+def _run_actors(ray, scenario, player, seeds, workers, make_diagram, gamma, weights=None):
+    per_seed = itertools.repeat(None) if weights is None else iter(weights)
     actors = []
     try:
         actor_class = ray.remote(num_cpus=1)(_Worker)
@@ -102,7 +105,7 @@ def _run_actors(ray, scenario, player, seeds, workers, make_diagram, gamma):
             # actor that produced it: every actor keeps IN_FLIGHT episodes queued.
             while submitted < len(seeds) and len(pending) < IN_FLIGHT * len(actors):
                 actor = actors[submitted % len(actors)]
-                pending.append(actor.run.remote(seeds[submitted], gamma))
+                pending.append(actor.run.remote(seeds[submitted], gamma, next(per_seed)))
                 submitted += 1
             yield _get(ray, pending.popleft())
     finally:

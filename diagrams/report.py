@@ -26,11 +26,32 @@ PAPER = {
                   "-", None),
     "pruned": ("Responsibility learning: primitives pruned (their earlier success)",
                "about 27 % (30 %)", None),
+    "power": ("PoWER (Eq. 9) in Algorithm 3: mean reward per batch, first -> last (legal return "
+              "by the primitives)", "-", None),
     "final": ("Learned MoMP player (responsibilities learned): legal return / on target",
               "94 %", 0.94),
     "real": ("Learned MoMP player on real serve states (D'Ambrosio et al. 2025, CC-BY 4.0): "
              "legal return / on target", "-", None),
+    # The hard protocol's rows (not in the paper): before and after learning on the same
+    # evaluation serves, each also relative to the oracle teacher's returnable ceiling.
+    "hard_gamma1": ("Hard protocol, MoMP gamma = 1 (before learning), {label} serves: legal "
+                    "return / on target", "-", None),
+    "hard_final": ("Hard protocol, learned MoMP player, {label} serves: legal return / on "
+                   "target", "-", None),
 }
+
+
+def _ceiling(r: dict) -> str:
+    """The figure relative to the oracle teacher's returnable serves, and the strokes an early
+    physical-model prediction carried."""
+    text = ""
+    if "returnable_serves" in r:
+        of = r["return_rate_of_returnable"]
+        text += (f"; {r['returns_of_returnable']} of the {r['returnable_serves']} serves the "
+                 f"oracle teacher returns = {_pct(of)} of the ceiling")
+    if "early_strokes" in r:
+        text += f"; {r['early_strokes']} strokes began on an early physical-model prediction"
+    return text
 
 
 def _pct(x) -> str:
@@ -48,8 +69,9 @@ def _momp(r: dict) -> str:
     return text
 
 
-def _row(key: str, ours: str, value, serves, command: str) -> dict:
+def _row(key: str, ours: str, value, serves, command: str, label: str = "") -> dict:
     what, paper_text, paper_value = PAPER[key]
+    what = what.format(label=label)
     row = {"key": key, "experiment": what, "paper": paper_text, "ours": ours, "value": value,
            "serves": serves, "command": command}
     if paper_value is not None and value is not None:
@@ -65,6 +87,9 @@ def _row(key: str, ours: str, value, serves, command: str) -> dict:
 def table_rows(results: dict) -> list[dict]:
     """Our figure for every paper row whose stage has finished."""
     rows = []
+    # A hard-protocol run splits the learning stages' serves among several distributions.
+    mix = (results.get("teacher") or {}).get("distributions")
+    split = f" (serves split among {', '.join(mix)})" if mix else ""
     pred = results.get("predictor")
     if pred:
         rows.append(_row("gpr_nmse", f"{pred['max_nmse']:.4f}", pred["max_nmse"],
@@ -76,15 +101,21 @@ def table_rows(results: dict) -> list[dict]:
                              f"{_pct(it['return_rate'])} / {_pct(it['target_rate'])}",
                              it["return_rate"], it["serves"],
                              f"--player crkr --crkr DIR/crkr/crkr_{it['iteration']}.npz --seed "
-                             f"{it['seed']}"))
+                             f"{it['seed']}{split}"))
     single = results.get("single")
     if single:
         rows.append(_row("single", f"{_pct(single['min_return'])} - "
                                    f"{_pct(single['max_return'])} ({len(single['primitives'])} "
                                    "primitives)", None, single["serves"],
-                         f"gamma one-hot, --seed {single['seed']}"))
+                         f"gamma one-hot, --seed {single['seed']}{split}"))
     g1 = results.get("gamma1")
-    if g1:
+    if g1 and "evaluation" in g1:  # hard protocol: on the evaluation serves
+        for label, r in g1["evaluation"].items():
+            rows.append(_row("hard_gamma1", _momp(r) + _ceiling(r), r["momp_return_rate"],
+                             r["serves"], f"--player momp --library DIR/library/library.npz "
+                                          f"--distribution {r['distribution']} --seed "
+                                          f"{r['seed']}", label=label))
+    elif g1:
         for key, conf in (("gamma1", "crkr"), ("gamma1_ik", "analytical")):
             rows.append(_row(key, _momp(g1[conf]), g1[conf]["momp_return_rate"],
                              g1["serves"], f"--player momp --configuration {conf} --seed "
@@ -95,17 +126,34 @@ def table_rows(results: dict) -> list[dict]:
         rows.append(_row("pruned", f"{_pct(resp['pruned_share'])} ({_pct(earlier)})",
                          resp["pruned_share"], resp["rollouts"],
                          f"{resp['rollouts']} rollouts in batches of {resp['batch']}, --seed "
-                         f"{resp['seed']}+batch"))
+                         f"{resp['seed']}+batch{split}"))
+    power = results.get("power")
+    if power and power["curve"]:
+        curve = np.array(power["curve"])
+        rows.append(_row("power", f"{curve[0, 1]:.3f} -> {curve[-1, 1]:.3f} ({_pct(curve[0, 2])} "
+                                  f"-> {_pct(curve[-1, 2])}); {power['pruned']} of "
+                                  f"{power['primitives']} pruned; weights moved "
+                                  f"{100.0 * curve[-1, 6]:.2f} % (relative norm)",
+                         curve[-1, 1], power["rollouts"], power["command"] + split))
     final = results.get("final") or results.get("final_partial")
+    library = (results.get("final") or {}).get("library") or (
+        (power or {}).get("library") or "responsibility/library_learned.npz")
     if final:
-        for key in ("default", "real"):
-            if key not in final:
-                continue
-            r = final[key]
+        for key, r in final.items():
+            if not isinstance(r, dict):
+                continue  # the library, the artefacts
             note = " (partial: the stage is still running)" if r.get("partial") else ""
+            if "distribution" in r:  # hard protocol
+                rows.append(_row("hard_final", _momp(r) + _ceiling(r) + note,
+                                 r["momp_return_rate"], r["serves"],
+                                 f"--player momp --library DIR/{library} --distribution "
+                                 f"{r['distribution']} --seed {r['seed']}", label=key))
+                continue
+            if key not in ("default", "real"):
+                continue
             rows.append(_row("final" if key == "default" else "real",
                              _momp(r) + note, r["momp_return_rate"], r["serves"],
-                             f"--player momp --library DIR/responsibility/library_learned.npz "
+                             f"--player momp --library DIR/{library} "
                              f"--distribution {key} --seed {r['seed']}"))
     return rows
 
@@ -135,6 +183,16 @@ def _plots(run, results: dict) -> list[str]:
         written.append(rp.plot_gamma_histogram(
             folder / "responsibilities.png", np.ones_like(state["gamma"]), state["gamma"],
             threshold=float(resp["threshold"])))
+    power = results.get("power")
+    if power and power["curve"]:
+        curve = np.array(power["curve"])
+        written.append(rp.plot_learning_curve(
+            folder / "power_learning.png",
+            [{"label": "mean reward (explored weights)", "x": curve[:, 0], "y": curve[:, 1]},
+             {"label": "legal return by the primitives", "x": curve[:, 0], "y": curve[:, 2]},
+             {"label": "share pruned", "x": curve[:, 0], "y": curve[:, 4] / power["primitives"]}],
+            xlabel="rollouts", ylabel="per batch", title="Algorithm 3 with PoWER (Eq. 9)",
+            paper={"final success": 0.94}))
     crkr = results.get("crkr")
     if crkr:
         its = crkr["iterations"]
@@ -147,7 +205,7 @@ def _plots(run, results: dict) -> list[str]:
             paper={"return, iteration 2": 0.95, "on target, iteration 2": 0.63}))
     if results.get("final") or results.get("final_partial"):
         points = {}
-        for key in ("default", "real"):
+        for key, _ in run.protocol.evaluate:
             path = run.root / "final" / f"landings_{key}.npy"
             if path.exists():
                 points[f"{key} serves"] = np.load(path)
@@ -186,10 +244,14 @@ def _partial_final(run) -> dict:
     from tt_drake.diagrams.reproduce import rates
 
     out = {}
-    for key, seed in (("default", run.config.final_seed), ("real", run.config.real_seed)):
+    (first, d1), (second, d2) = run.protocol.evaluate
+    for key, dist, seed in ((first, d1, run.config.final_seed),
+                            (second, d2, run.config.real_seed)):
         episodes = _chunk_episodes(run.root / "final" / key)
         if episodes:
             out[key] = {**rates(episodes), "seed": seed, "partial": True}
+            if run.protocol.ceiling:
+                out[key]["distribution"] = dist
     return out
 
 
@@ -204,7 +266,8 @@ def write_report(run) -> dict:
             results["final_partial"] = partial
     rows = table_rows(results)
     plots = _plots(run, results)
-    report = {"quick": run.quick, "config": run.config.to_dict(), "workers": run.workers,
+    report = {"quick": run.quick, "protocol": run.protocol.name,
+              "config": run.config.to_dict(), "workers": run.workers,
               "executor": run.executor, "table": rows, "stages": results, "plots": plots,
               "wall_seconds": round(sum(r.get("wall_seconds", 0.0) for r in results.values()),
                                     1)}
@@ -215,7 +278,9 @@ def write_report(run) -> dict:
 
 def format_markdown(report: dict) -> str:
     kind = "quick (CI-sized: few serves, figures are noisy)" if report["quick"] else "full"
-    lines = [f"# tt-drake reproduce: {kind} run", "",
+    protocol = report.get("protocol", "paper")
+    lines = [f"# tt-drake reproduce: {kind} run"
+             + ("" if protocol == "paper" else f", {protocol} protocol"), "",
              f"Stages finished: {', '.join(report['stages'])}; total stage time "
              f"{report['wall_seconds'] / 60:.1f} min on {report['workers']} workers "
              f"({report['executor']}).", "",

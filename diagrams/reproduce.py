@@ -15,7 +15,18 @@ Stages, in order (each a function below; :data:`STAGES`):
 5. ``single``: a random sample of library primitives, each alone (gamma one-hot);
 6. ``gamma1``: the mixture with gamma = 1 (CrKR, and with the analytical IK instead);
 7. ``responsibility``: responsibility learning (Algorithm 3, Eqs. 10-11) in batches of rollouts;
-8. ``final``: the learned player on ``final_serves`` default serves and on ``real`` serves.
+8. ``power``: Algorithm 3 with PoWER (Eq. 9) too, from the responsibility stage's library: every
+   rollout explores the primitives' weights, its reward updates the responsibilities and the
+   weights of the primitives that took part (:mod:`tt_drake.mixture_learning`);
+9. ``final``: the learned player on ``final_serves`` default serves and on ``real`` serves.
+
+Protocols (:data:`PROTOCOLS`, ``--protocol``): ``paper`` is the above; ``hard`` learns from a mix
+of ``spin`` launcher serves and the ``real-train`` and ``rally-train`` pools (the teacher's
+serves and every learning stage's rollouts split evenly among them), and judges the player on
+unseen ``spin`` seeds and the ``real-test`` pool, before learning (``gamma1``) and after
+(``final``) on the same serves, each figure also relative to the oracle teacher's returnable
+ceiling on those serves (``DIR/ceiling``) and with the count of strokes whose hitting stage began
+on an early physical-model prediction.
 
 Checkpoints. ``DIR/config.json`` fixes the run's settings (a DIR holding another run is refused).
 Every rollout stage writes its episodes in chunks of :data:`CHUNK` (``episodes_00000.json`` ...),
@@ -41,12 +52,13 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from tt_drake.diagrams.train import HARD_PROFILE
 from tt_drake.outputs import claim_folder, portable_path, write_json_atomic
 from tt_drake.provenance import run_provenance
 
 CHUNK = 100
 STAGES = ("teacher", "predictor", "library", "crkr", "single", "gamma1", "responsibility",
-          "final")
+          "power", "final")
 
 
 class ReproduceError(ValueError):
@@ -81,6 +93,12 @@ class ReproduceConfig:
     responsibility_rollouts: int = 2000
     responsibility_batch: int = 100
     responsibility_seed: int = 50
+    # Algorithm 3 with PoWER (Eq. 9), from the responsibility stage's library.
+    power_rollouts: int = 1000
+    power_batch: int = 100
+    power_seed: int = 60
+    power_sigma: float = 0.1  # exploration: a fraction of each joint's weight spread
+    power_n_best: int = 10
     final_serves: int = 10000  # paper: 10,000
     final_seed: int = 2026
     real_serves: int = 500
@@ -97,8 +115,52 @@ def quick_config() -> ReproduceConfig:
         teacher_serves=100, predictor_train_serves=150, predictor_test_serves=200,
         primitives=60, crkr_samples=80, crkr_serves=80, crkr_max_iterations=2,
         crkr_min_gain=-1.0, single_primitives=3, single_serves=15, gamma1_serves=40,
-        responsibility_rollouts=120, responsibility_batch=40, final_serves=60, real_serves=30,
+        responsibility_rollouts=120, responsibility_batch=40, power_rollouts=80, power_batch=40,
+        final_serves=60, real_serves=30,
         predictor_restarts=0)
+
+
+@dataclass(frozen=True)
+class Protocol:
+    """Which serves a run learns from and is judged on.
+
+    ``train``: the distributions of the teacher's demonstrations and of every learning stage's
+    rollouts (their serves split evenly among them); ``evaluate``: (label, distribution) of the
+    ``final`` stage's two serve sets, with ``final_serves`` / ``final_seed`` and ``real_serves``
+    / ``real_seed``; ``ceiling``: also play every evaluation serve with the oracle teacher
+    (``serve --ceiling``) and give each figure relative to its returnable serves; ``gamma1`` on
+    the evaluation serves instead of its own, so that before and after learning are compared on
+    the same serves."""
+
+    name: str
+    train: tuple[str, ...]
+    evaluate: tuple[tuple[str, str], tuple[str, str]]
+    ceiling: bool = False
+    # The library's settings (``tt_drake.diagrams.train.library_options``); empty: the paper's.
+    library: tuple[tuple[str, object], ...] = ()
+    # The GPR's feature set (``tt_drake.hitting_point``), trained on the ``train`` mix when not
+    # the paper's ``states`` (the paper's predictor learns from default serves only).
+    predictor_features: str = "states"
+
+    def library_settings(self, config):
+        """The settings the library and CrKR stages read: the protocol's, else ``config``'s."""
+        from types import SimpleNamespace
+
+        return SimpleNamespace(**{**config.to_dict(), **dict(self.library)}) if self.library \
+            else config
+
+
+PROTOCOLS = {
+    # The paper's experiments, on the default launcher (today's run, unchanged).
+    "paper": Protocol("paper", ("default",), (("default", "default"), ("real", "real"))),
+    # Learning has to do something: spinning launcher serves and recorded real serves and rally
+    # balls to learn from, unseen spin seeds and the real serves' test split to be judged on.
+    # Its library imitates the arm's recorded strokes with softer DMPs (the weights decide the
+    # impact), gates and configures on the spin too; its GPR reads the estimated spin.
+    "hard": Protocol("hard", ("spin", "real-train", "rally-train"),
+                     (("spin", "spin"), ("real-test", "real-test")), ceiling=True,
+                     library=tuple(HARD_PROFILE.items()), predictor_features="states+spin"),
+}
 
 
 # ----------------------------------------------------------------------------- run folder
@@ -106,15 +168,21 @@ class Run:
     """The run folder: settings, stage folders and their results."""
 
     def __init__(self, out, config: ReproduceConfig, quick: bool, workers: int,
-                 executor: str = "local", progress: bool = True):
+                 executor: str = "local", progress: bool = True, protocol: str = "paper"):
+        if protocol not in PROTOCOLS:
+            raise ReproduceError(f"unknown protocol {protocol!r}; choose one of "
+                                 f"{', '.join(PROTOCOLS)}")
         self.root = Path(out)
         self.config, self.quick, self.workers = config, quick, workers
         self.executor, self.progress = executor, progress
+        self.protocol = PROTOCOLS[protocol]
         self._prepare()
 
     def _prepare(self) -> None:
         settings = {"format": "tt-drake-reproduce", "version": 1, "quick": self.quick,
                     "config": self.config.to_dict()}
+        if self.protocol.name != "paper":  # a paper run's settings are those of earlier runs
+            settings["protocol"] = self.protocol.name
         # Held while this Run lives: a second run into the same folder is refused.
         self._lock = claim_folder(self.root, "config.json", settings, ReproduceError, "run")
 
@@ -164,9 +232,10 @@ class Run:
 
     # ------------------------------------------------------------------------- rollouts
     def rollouts(self, folder: Path, scenario, player: str, serves: int, seed: int,
-                 gamma=None, desc: str = "") -> list[dict]:
+                 gamma=None, desc: str = "", weights=None) -> list[dict]:
         """Episodes ``episode_seed(seed, i)``, i < serves, as dicts (``EpisodeResult.as_dict``),
-        kept in chunk files in ``folder`` so an interrupted stage resumes."""
+        kept in chunk files in ``folder`` so an interrupted stage resumes. ``weights``: None or
+        a function of ``i`` giving the momp player's primitive weights for episode ``i``."""
         from tt_drake.diagrams.episodes import episode_seed
         from tt_drake.diagrams.parallel import run_episodes
 
@@ -185,7 +254,8 @@ class Run:
         pending: dict[int, list] = {}
         seeds = [episode_seed(seed, i) for i in todo]
         results = run_episodes(scenario, player, seeds, self.workers, gamma=gamma,
-                               executor=self.executor)
+                               executor=self.executor,
+                               weights=None if weights is None else (weights(i) for i in todo))
         for i, result in zip(todo, results, strict=True):
             c = i // CHUNK
             pending.setdefault(c, []).append(result.as_dict())
@@ -195,6 +265,47 @@ class Run:
                 write_json_atomic(folder / f"episodes_{c:05d}.json", chunks[c])
         bar.close()
         return [e for c in range(n_chunks) for e in chunks[c]]
+
+    def train_rollouts(self, folder: Path, scenario, player: str, serves: int, seed: int,
+                       gamma=None, desc: str = "", weights=None) -> list[dict]:
+        """:meth:`rollouts` on the protocol's training serves: with one training distribution
+        exactly :meth:`rollouts` on it (``folder`` as given); with several, the serves split
+        evenly among them (``folder/<distribution>``, each dealt without repeats), in
+        distribution order; ``weights`` is then indexed over the whole list."""
+        dists = self.protocol.train
+        if len(dists) == 1:
+            return self.rollouts(folder, scenario, player, serves, seed, gamma=gamma, desc=desc,
+                                 weights=weights)
+        out: list[dict] = []
+        for k, dist in enumerate(dists):
+            n = serves // len(dists) + (1 if k < serves % len(dists) else 0)
+            if n == 0:
+                continue
+            offset = len(out)
+            out += self.rollouts(
+                folder / dist, _dealt(scenario, dist, seed), player, n, seed, gamma=gamma,
+                desc=f"{desc or player} ({dist})",
+                weights=None if weights is None else (lambda i, o=offset: weights(o + i)))
+        return out
+
+
+def _dealt(scenario, distribution: str, seed: int):
+    """A copy of ``scenario`` serving ``distribution``; a pool's serves dealt without repeats
+    for the base seed ``seed`` (as ``tt-drake serve`` does)."""
+    import copy
+
+    from tt_drake.serves import POOLS, ServeSampler, parse_distribution
+
+    out = copy.deepcopy(scenario)
+    out.launcher.distribution = distribution
+    out.launcher.run_seed = seed
+    if parse_distribution(distribution)[0] in POOLS:
+        # The pool's balls are flown once, here, and the worker processes forked later inherit
+        # them (tt_drake.serves caches a pool per process).
+        c = out.launcher
+        ServeSampler(distribution, c.spin_max, c.real_serves or None,
+                     rally_path=c.rallies or None).pool()
+    return out
 
 
 def rates(episodes: list[dict]) -> dict:
@@ -217,7 +328,24 @@ def rates(episodes: list[dict]) -> dict:
                                       for e, c in zip(episodes, carried, strict=True)) / n
         out["momp_target_rate"] = sum(bool(e["on_target"]) and c
                                       for e, c in zip(episodes, carried, strict=True)) / n
+        # Strokes whose hitting stage began on an early physical-model prediction, before the
+        # learned predictor's (GPR) final one.
+        out["early_strokes"] = sum(bool(s.get("early_prediction")) for s in strokes)
     return out
+
+
+def ceiling_rates(episodes: list[dict], oracle: list[dict]) -> dict:
+    """The player's figures relative to the oracle teacher's returnable ceiling on the same
+    serves (``serve --ceiling``): the serves the oracle analytical player returned, and the
+    player's legal returns carried by the primitives among them."""
+    returnable = [bool(o["returned"]) for o in oracle]
+    n = sum(returnable)
+    carried = [bool(e["returned"]) and not (e.get("stroke") or {}).get("fallback", False)
+               for e in episodes]
+    returns = sum(c and r for c, r in zip(carried, returnable, strict=True))
+    return {"returnable_serves": n, "returnable_rate": n / len(oracle) if oracle else 0.0,
+            "returns_of_returnable": returns,
+            "return_rate_of_returnable": returns / n if n else None}
 
 
 def credited_reward(episode: dict) -> float:
@@ -233,13 +361,60 @@ def stage_teacher(run: Run) -> dict:
     from tt_drake.diagrams.collect import collect
 
     c = run.config
-    summary = collect(run.scenario(), "analytical", c.teacher_serves, c.teacher_seed,
-                      str(run.root / "teacher" / "data"), run.workers, progress=run.progress,
-                      executor=run.executor)
-    return {"serves": c.teacher_serves, "seed": c.teacher_seed,
-            "return_rate": summary["return_rate"],
-            "command": f"tt-drake collect --player analytical --serves {c.teacher_serves} "
-                       f"--seed {c.teacher_seed} --out DIR"}
+    dists = run.protocol.train
+    if len(dists) == 1:
+        summary = collect(run.scenario(distribution=dists[0]), "analytical", c.teacher_serves,
+                          c.teacher_seed, str(run.root / "teacher" / "data"), run.workers,
+                          progress=run.progress, executor=run.executor)
+        return {"serves": c.teacher_serves, "seed": c.teacher_seed,
+                "return_rate": summary["return_rate"],
+                "command": f"tt-drake collect --player analytical --serves {c.teacher_serves} "
+                           f"--seed {c.teacher_seed} --out DIR"}
+    # Several training distributions: one dataset each (serves split evenly), then merged.
+    folders, per = [], {}
+    for k, dist in enumerate(dists):
+        n = c.teacher_serves // len(dists) + (1 if k < c.teacher_serves % len(dists) else 0)
+        folder = run.root / "teacher" / f"data_{dist}"
+        summary = collect(_dealt(run.scenario(), dist, c.teacher_seed), "analytical", n,
+                          c.teacher_seed, str(folder), run.workers, progress=run.progress,
+                          executor=run.executor)
+        folders.append(folder)
+        per[dist] = {"serves": n, "return_rate": summary["return_rate"]}
+    merged = _merge_datasets(folders, run.root / "teacher" / "data")
+    return {"serves": c.teacher_serves, "seed": c.teacher_seed, "distributions": per,
+            "return_rate": merged,
+            "command": f"tt-drake collect --player analytical --distribution D --serves N "
+                       f"--seed {c.teacher_seed} --out DIR, D in {', '.join(dists)}"}
+
+
+def _merge_datasets(folders: list[Path], out: Path) -> float:
+    """The teacher datasets in ``folders`` as one dataset in ``out`` (one chunk, serves in
+    folder order, re-indexed) that ``tt-drake train`` reads; returns its legal-return rate."""
+    from tt_drake.artefacts import save_artefact
+    from tt_drake.diagrams.collect import KIND, MANIFEST, load_dataset
+
+    datasets = [load_dataset(f) for f in folders]
+    arrays: dict[str, list] = {}
+    offset = 0
+    for data in datasets:
+        n = len(data["returned"])
+        for key, value in data.items():
+            if key == "manifest":
+                continue
+            if key in ("index", "trajectory_serve"):
+                value = value + offset
+            arrays.setdefault(key, []).append(value)
+        offset += n
+    merged = {key: np.concatenate(parts) for key, parts in arrays.items()}
+    first = datasets[0]["manifest"]
+    manifest = {**first, "distribution": "+".join(d["manifest"]["distribution"]
+                                                    for d in datasets),
+                "serves": offset, "chunk_size": max(offset, 1),
+                "sources": [portable_path(f, out.parent) for f in folders]}
+    out.mkdir(parents=True, exist_ok=True)
+    save_artefact(out / "chunk_00000.npz", KIND, merged, {"chunk": 0, "merged": True})
+    write_json_atomic(out / MANIFEST, manifest)
+    return float(merged["returned"].mean())
 
 
 def stage_predictor(run: Run) -> dict:
@@ -248,12 +423,19 @@ def stage_predictor(run: Run) -> dict:
     c = run.config
     folder = run.folder("predictor")
     model = folder / "predictor.npz"
+    features = run.protocol.predictor_features
+    # The paper's GPR learns from (and is judged on) default serves; another feature set learns
+    # from the protocol's training mix and is judged on its evaluation distributions.
+    train_mix = None if features == "states" else ",".join(run.protocol.train)
+    test_mix = None if features == "states" else ",".join(
+        sorted({d for _, d in run.protocol.evaluate}))
     train = train_predictor(c.predictor_train_serves, c.predictor_train_seed, str(model),
                             restarts=c.predictor_restarts, workers=run.workers,
-                            progress=run.progress)
+                            progress=run.progress, distribution=train_mix,
+                            feature_set=features)
     metrics = eval_predictor(str(model), c.predictor_test_serves, c.predictor_test_seed,
                              str(folder / "eval.json"), workers=run.workers,
-                             progress=run.progress, keep_errors=True)
+                             progress=run.progress, keep_errors=True, distribution=test_mix)
     errors = metrics.pop("errors")
     np.save(folder / "errors.npy", errors)
     write_json_atomic(folder / "eval.json", {**json.loads((folder / "eval.json").read_text()),
@@ -262,8 +444,12 @@ def stage_predictor(run: Run) -> dict:
             "eval": {k: metrics[k] for k in ("serves", "used", "skipped", "gpr", "physical")},
             "max_nmse": max(r["nmse"] for r in metrics["gpr"] if r["nmse"] is not None),
             "command": f"tt-drake train-predictor --serves {c.predictor_train_serves} --seed "
-                       f"{c.predictor_train_seed}; tt-drake eval-predictor --serves "
-                       f"{c.predictor_test_serves} --seed {c.predictor_test_seed}"}
+                       f"{c.predictor_train_seed}"
+                       + (f" --distribution {train_mix} --features {features}" if train_mix
+                          else "")
+                       + f"; tt-drake eval-predictor --serves {c.predictor_test_serves} --seed "
+                       f"{c.predictor_test_seed}"
+                       + (f" --distribution {test_mix}" if test_mix else "")}
 
 
 def stage_library(run: Run) -> dict:
@@ -272,7 +458,7 @@ def stage_library(run: Run) -> dict:
     c = run.config
     out = run.folder("library") / "library.npz"
     summary = train_library(run.root / "teacher" / "data", out, c.primitives,
-                            **library_options(c))
+                            **library_options(run.protocol.library_settings(c)))
     return {"library": run.rel(out), "primitives": summary["primitives"],
             "command": f"tt-drake train library --data DIR/teacher/data --primitives "
                        f"{c.primitives}"}
@@ -293,16 +479,16 @@ def stage_crkr(run: Run) -> dict:
         if not model.exists():
             if k == 1:
                 train_crkr(run.root / "teacher" / "data", model, c.crkr_samples,
-                           stimulus_of(c))
+                           stimulus_of(run.protocol.library_settings(c)))
             else:
                 pairs = _successful_pairs(iterations[-1]["episodes"], c.crkr_samples)
                 fit_crkr(*pairs, model, {"scenario": run.scenario().name,
                                          "hitting_y": PLANES.hitting_y,
                                          "policy_iteration": k, "source": f"crkr_{k - 1}"},
-                         stimulus_of(c))
-        episodes = run.rollouts(folder / f"iteration_{k}", run.scenario(crkr=str(model),
-                                predictor=predictor), "crkr", c.crkr_serves, c.crkr_seed + k,
-                                desc=f"CrKR iteration {k}")
+                         stimulus_of(run.protocol.library_settings(c)))
+        episodes = run.train_rollouts(folder / f"iteration_{k}", run.scenario(
+            crkr=str(model), predictor=predictor), "crkr", c.crkr_serves, c.crkr_seed + k,
+            desc=f"CrKR iteration {k}")
         iterations.append({"iteration": k, "model": run.rel(model), "seed": c.crkr_seed + k,
                            **rates(episodes), "episodes": episodes})
         run.say(f"  CrKR iteration {k}: return {iterations[-1]['return_rate']:.1%}, target "
@@ -348,9 +534,9 @@ def stage_single(run: Run) -> dict:
     for i in chosen:
         gamma = np.zeros(n)
         gamma[i] = 1.0
-        episodes = run.rollouts(run.folder("single") / f"primitive_{i:03d}", _learned(run),
-                                "momp", c.single_serves, c.single_seed, gamma=gamma,
-                                desc=f"primitive {i} alone")
+        episodes = run.train_rollouts(run.folder("single") / f"primitive_{i:03d}",
+                                      _learned(run), "momp", c.single_serves, c.single_seed,
+                                      gamma=gamma, desc=f"primitive {i} alone")
         rows.append({"primitive": int(i), **rates(episodes)})
     returns = [r["momp_return_rate"] for r in rows]
     return {"primitives": rows, "min_return": min(returns), "max_return": max(returns),
@@ -359,6 +545,8 @@ def stage_single(run: Run) -> dict:
 
 def stage_gamma1(run: Run) -> dict:
     c = run.config
+    if run.protocol.ceiling:
+        return _gamma1_on_evaluation_serves(run)
     out = {}
     for configuration in ("crkr", "analytical"):
         episodes = run.rollouts(run.folder("gamma1") / configuration,
@@ -369,6 +557,42 @@ def stage_gamma1(run: Run) -> dict:
                 f"{out[configuration]['momp_return_rate']:.1%} by the primitives "
                 f"({out[configuration]['return_rate']:.1%} with fallbacks)")
     return {**out, "seed": c.gamma1_seed, "serves": c.gamma1_serves}
+
+
+def _evaluation_sets(run: Run):
+    """(label, distribution, serves, seed) of the protocol's two evaluation serve sets."""
+    c = run.config
+    (a, da), (b, db) = run.protocol.evaluate
+    return ((a, da, c.final_serves, c.final_seed), (b, db, c.real_serves, c.real_seed))
+
+
+def _evaluate(run: Run, folder: Path, scenario, label: str, dist: str, serves: int, seed: int,
+              desc: str) -> tuple[dict, list[dict]]:
+    """The learned player on one evaluation set; with the protocol's ceiling, also relative to
+    the oracle teacher's returnable serves (played once per run, in ``DIR/ceiling/<label>``)."""
+    dealt = _dealt(scenario, dist, seed) if run.protocol.ceiling else scenario
+    episodes = run.rollouts(folder, dealt, "momp", serves, seed, desc=desc)
+    out = {**rates(episodes), "seed": seed, "distribution": dist}
+    if run.protocol.ceiling:
+        oracle_scenario = _dealt(run.scenario(), dist, seed)
+        oracle_scenario.perception = "oracle"
+        oracle = run.rollouts(run.folder("ceiling") / label, oracle_scenario, "analytical",
+                              serves, seed, desc=f"oracle teacher ({label} serves)")
+        out.update(ceiling_rates(episodes, oracle))
+    return out, episodes
+
+
+def _gamma1_on_evaluation_serves(run: Run) -> dict:
+    """The mixture with gamma = 1 (CrKR) on the evaluation serves the final player meets: the
+    hard protocol's "before learning"."""
+    out = {}
+    for label, dist, serves, seed in _evaluation_sets(run):
+        out[label], _ = _evaluate(run, run.folder("gamma1") / label, _learned(run), label, dist,
+                                  serves, seed, f"MoMP gamma=1 ({label} serves)")
+        run.say(f"  MoMP gamma = 1, {label}: return {out[label]['momp_return_rate']:.1%} by "
+                f"the primitives")
+    return {"evaluation": out, "seed": run.config.final_seed,
+            "serves": run.config.final_serves}
 
 
 def stage_responsibility(run: Run) -> dict:
@@ -396,9 +620,9 @@ def stage_responsibility(run: Run) -> dict:
     for b in range(int(state["batches"]), batches):
         start = b * c.responsibility_batch
         size = min(c.responsibility_batch, c.responsibility_rollouts - start)
-        episodes = run.rollouts(folder / f"batch_{b:04d}", _learned(run), "momp", size,
-                                c.responsibility_seed + b, gamma=state["gamma"],
-                                desc=f"responsibility batch {b + 1}/{batches}")
+        episodes = run.train_rollouts(folder / f"batch_{b:04d}", _learned(run), "momp", size,
+                                      c.responsibility_seed + b, gamma=state["gamma"],
+                                      desc=f"responsibility batch {b + 1}/{batches}")
         s, cnt, gamma = state["s"], state["n"], state["gamma"]
         for e in episodes:
             stroke = e.get("stroke")
@@ -448,19 +672,110 @@ def _save_learned_library(run: Run, gamma, state, out) -> None:
                                                int(state["curve"][-1, 0])})
 
 
-def stage_final(run: Run) -> dict:
+def stage_power(run: Run) -> dict:
+    """Algorithm 3 with PoWER, in batches: the rollouts of a batch use the batch's mean weights
+    plus their own exploration (seeded by the batch and the rollout) and the batch's gamma; then,
+    in rollout order, each rollout's credited reward updates the responsibilities (Eqs. 10-11)
+    and joins the importance samplers of the primitives that took part; Eq. 9 updates their
+    weights once per batch. Starts from the responsibility stage's library (its gamma, s, n)."""
+    from tt_drake.artefacts import ArtefactError, load_artefact, save_artefact
+    from tt_drake.learned_player import load_player_library
+    from tt_drake.mixture_learning import MixtureLearner, PowerParams, explored_weights
+
     c = run.config
-    library = run.result("responsibility")["library"]
+    folder = run.folder("power")
+    source = run.result("responsibility")["library"]
+    library, _, _ = load_player_library(run.path(source))
+    params = PowerParams(relative_sigma=c.power_sigma, n_best=c.power_n_best)
+    start = library.weights.copy()
+    try:
+        state, _ = load_artefact(folder / "state.npz", "power-learning")
+        learner = MixtureLearner.from_state(state, library.stimuli, library.bandwidths,
+                                            library.responsibility, params)
+        done, curve = int(state["batches"]), state["curve"]
+    except ArtefactError:
+        learner = MixtureLearner(library.weights, library.stimuli, library.bandwidths,
+                                 library.responsibility, params, gamma=library.gamma,
+                                 s=library.s, n=library.n)
+        done, curve = 0, np.zeros((0, 7))
+    scenario = _learned(run)
+    scenario.learned.library = str(run.path(source))
+    batches = -(-c.power_rollouts // c.power_batch)
+    n = learner.n_primitives
+    for b in range(done, batches):
+        first = b * c.power_batch
+        size = min(c.power_batch, c.power_rollouts - first)
+        mean, pruned, gamma = learner.weights.copy(), learner.pruned.copy(), learner.gamma.copy()
+
+        def explored(i, b=b, mean=mean, pruned=pruned):
+            return explored_weights(mean, learner.sigma, pruned,
+                                    np.random.default_rng([c.power_seed, b, i]))
+
+        episodes = run.train_rollouts(folder / f"batch_{b:04d}", scenario, "momp", size,
+                                      c.power_seed + b, gamma=gamma, weights=explored,
+                                      desc=f"PoWER batch {b + 1}/{batches}")
+        for i, e in enumerate(episodes):
+            stroke = e.get("stroke")
+            if not stroke or not stroke["primitives"]:
+                continue  # no stroke was planned: nothing to credit
+            learner.credit(stroke["stimulus"], stroke["primitives"], stroke["mixture"],
+                           credited_reward(e), explored(i))
+        updated = learner.update_weights()
+        r = rates(episodes)
+        moved = float(np.mean(np.linalg.norm((learner.weights - start).reshape(n, -1), axis=1)
+                              / np.maximum(np.linalg.norm(start.reshape(n, -1), axis=1), 1e-12)))
+        curve = np.vstack([curve, [first + size, np.mean([credited_reward(e) for e in episodes]),
+                                   r["momp_return_rate"], r["target_rate"],
+                                   float(learner.pruned.sum()), float(updated.size), moved]])
+        save_artefact(folder / "state.npz", "power-learning",
+                      {**learner.state(), "batches": np.array(b + 1), "curve": curve},
+                      {"rollouts": int(first + size)})
+        shutil.rmtree(folder / f"batch_{b:04d}", ignore_errors=True)  # now in the state
+        run.say(f"  PoWER batch {b + 1}/{batches}: mean reward {curve[-1, 1]:.3f}, return "
+                f"{r['momp_return_rate']:.1%} by the primitives, {updated.size} primitives "
+                f"updated, pruned {int(curve[-1, 4])} of {n}")
+    out = folder / "library_power.npz"
+    _save_power_library(run, source, learner, int(curve[-1, 0]), out)
+    return {"curve": curve.tolist(), "curve_columns": list(POWER_CURVE),
+            "primitives": n, "pruned": int(learner.pruned.sum()),
+            "library": run.rel(out), "rollouts": c.power_rollouts, "batch": c.power_batch,
+            "seed": c.power_seed, **params.to_dict(),
+            "command": f"{c.power_rollouts} rollouts in batches of {c.power_batch}, --seed "
+                       f"{c.power_seed}+batch, exploration {c.power_sigma} of each joint's "
+                       "weight spread"}
+
+
+POWER_CURVE = ("rollouts", "mean_reward", "momp_return_rate", "target_rate", "pruned",
+               "primitives_updated", "relative_weight_change")
+
+
+def _save_power_library(run: Run, source: str, learner, rollouts: int, out) -> None:
+    """The responsibility stage's library with the weights, gamma, s and n of Algorithm 3;
+    pruned primitives removed."""
+    from tt_drake.learned_player import load_player_library, save_player_library
+
+    library, stages, meta = load_player_library(run.path(source))
+    library.weights = learner.weights.copy()
+    library.gamma, library.s, library.n = learner.gamma.copy(), learner.s.copy(), learner.n.copy()
+    library.remove(np.flatnonzero(learner.pruned))
+    meta = {k: v for k, v in meta.items() if k not in ("learned_format_version", "dmp",
+                                                         "responsibility", "min_weight")}
+    save_player_library(out, library, stages, {**meta, "power_rollouts": rollouts})
+
+
+def stage_final(run: Run) -> dict:
+    library = (run.result("power") or run.result("responsibility"))["library"]
     out = {"library": library}
-    for name, distribution, serves, seed in (("default", "default", c.final_serves, c.final_seed),
-                                             ("real", "real", c.real_serves, c.real_seed)):
+    for name, distribution, serves, seed in _evaluation_sets(run):
         scenario = _learned(run, distribution=distribution)
         scenario.learned.library = str(run.path(library))
-        episodes = run.rollouts(run.folder("final") / name, scenario, "momp", serves, seed,
-                                desc=f"final player ({name} serves)")
+        out[name], episodes = _evaluate(run, run.folder("final") / name, scenario, name,
+                                        distribution, serves, seed,
+                                        f"final player ({name} serves)")
+        if not run.protocol.ceiling:  # the paper's rows as they were
+            out[name].pop("distribution")
         landings = [e["landing"] for e in episodes if e["landing"] is not None]
         np.save(run.folder("final") / f"landings_{name}.npy", np.array(landings).reshape(-1, 2))
-        out[name] = {**rates(episodes), "seed": seed}
         run.say(f"  final player, {name}: return {out[name]['momp_return_rate']:.1%} by the "
                 f"primitives ({out[name]['return_rate']:.1%} with fallbacks)")
     out["artefacts"] = _export_artefacts(run, library)
@@ -476,7 +791,9 @@ def _export_artefacts(run: Run, library: str) -> dict:
     for name, source in sources.items():
         shutil.copyfile(run.path(source), folder / f".{name}.tmp")
         (folder / f".{name}.tmp").replace(folder / name)
-    provenance = {"command": "tt-drake reproduce" + (" --quick" if run.quick else ""),
+    command = "tt-drake reproduce" + (" --quick" if run.quick else "") + (
+        f" --protocol {run.protocol.name}" if run.protocol.name != "paper" else "")
+    provenance = {"command": command, "protocol": run.protocol.name,
                   "config": run.config.to_dict(), **run_provenance(),
                   "sources": {name: run.rel(run.path(source)) for name, source in sources.items()}}
     write_json_atomic(folder / "provenance.json", provenance)
@@ -486,12 +803,14 @@ def _export_artefacts(run: Run, library: str) -> dict:
 STAGE_FUNCTIONS = {"teacher": stage_teacher, "predictor": stage_predictor,
                    "library": stage_library, "crkr": stage_crkr, "single": stage_single,
                    "gamma1": stage_gamma1, "responsibility": stage_responsibility,
-                   "final": stage_final}
+                   "power": stage_power, "final": stage_final}
 
 
 def reproduce(out, quick: bool = False, workers: int | None = None, executor: str = "local",
-              progress: bool = True, config: ReproduceConfig | None = None) -> dict:
-    """Run the missing stages, then write the report; returns the report dict."""
+              progress: bool = True, config: ReproduceConfig | None = None,
+              protocol: str = "paper") -> dict:
+    """Run the missing stages, then write the report; returns the report dict. ``protocol``:
+    a name in :data:`PROTOCOLS`."""
     from tt_drake.diagrams.inputs import check_inputs
     from tt_drake.diagrams.parallel import EXECUTORS, default_workers, executor_session
     from tt_drake.diagrams.report import write_report
@@ -500,11 +819,16 @@ def reproduce(out, quick: bool = False, workers: int | None = None, executor: st
     if executor not in EXECUTORS:
         raise ReproduceError(f"unknown executor {executor!r}; choose one of "
                              f"{', '.join(EXECUTORS)}")
+    if protocol not in PROTOCOLS:
+        raise ReproduceError(f"unknown protocol {protocol!r}; choose one of "
+                             f"{', '.join(PROTOCOLS)}")
     config = config or (quick_config() if quick else ReproduceConfig())
     # Every file a stage will read, checked before the first stage: the final stage serves real
     # ball states (serves.json) after hours of the others.
-    check_inputs(load_scenario("default"), distributions=("real",))
-    run = Run(out, config, quick, workers or default_workers(), executor, progress)
+    used = {*PROTOCOLS[protocol].train, *(d for _, d in PROTOCOLS[protocol].evaluate)}
+    check_inputs(load_scenario("default"),
+                 distributions=("real",) if any(d.startswith("real") for d in used) else ())
+    run = Run(out, config, quick, workers or default_workers(), executor, progress, protocol)
     with executor_session(executor, run.workers):
         for k, stage in enumerate(STAGES, 1):
             if run.result(stage) is not None:
@@ -517,4 +841,5 @@ def reproduce(out, quick: bool = False, workers: int | None = None, executor: st
     return write_report(run)
 
 
-__all__ = ["reproduce", "ReproduceConfig", "quick_config", "ReproduceError", "STAGES", "rates"]
+__all__ = ["reproduce", "ReproduceConfig", "quick_config", "ReproduceError", "STAGES", "rates",
+           "PROTOCOLS", "Protocol", "ceiling_rates"]

@@ -233,6 +233,7 @@ FIELD_RULES: dict[str, Check] = {
     "referee.target_y": number(),
     "referee.target_radius": number(above=0.0),
     "referee.reward_sigma": number(above=0.0),
+    "referee.return_floor": number(minimum=0.0, maximum=1.0),
     "referee.velocity_jump": number(above=0.0),
     "referee.racket_reach": number(above=0.0),
     "referee_rate": number(above=0.0, maximum=MAX_RATE),

@@ -97,15 +97,18 @@ class PoWER:
         w = np.asarray(weights, dtype=float)
         if not self._heap:
             return w.copy()
-        r = np.array([item[0] for item in self._heap])
-        theta = np.stack([item[2] for item in self._heap])  # (J, *w.shape)
+        # Summed in arrival order, whatever the heap's layout: a sampler restored from its
+        # state() gives bit-identical updates.
+        items = sorted(self._heap, key=lambda item: item[1])
+        r = np.array([item[0] for item in items])
+        theta = np.stack([item[2] for item in items])  # (J, *w.shape)
         if theta.shape[1:] != w.shape:
             raise ValueError(f"weights have shape {w.shape}, rollouts {theta.shape[1:]}")
         eps = theta - w
         if self._heap[0][3] is None:  # one policy: nu = 1
             total = r.sum()
             return w + np.tensordot(r, eps, axes=1) / total if total > 0 else w.copy()
-        nu = np.stack([item[3] for item in self._heap])  # (J, P)
+        nu = np.stack([item[3] for item in items])  # (J, P)
         rn = nu * r[:, None]  # nu_ij r^j
         num = np.einsum("jp,jp...->p...", rn, eps)
         den = rn.sum(axis=0) if self.responsibility_weighted else np.full(nu.shape[1], r.sum())
@@ -117,3 +120,37 @@ class PoWER:
     def clear(self) -> None:
         """Forget every rollout (e.g. after changing the task)."""
         self._heap.clear()
+
+    def state(self) -> dict[str, FloatArray]:
+        """The kept rollouts as arrays (``reward``, ``order``, ``theta`` and, if given, ``nu``)
+        in arrival order, and the arrival number of the ``next`` rollout: for saving a learning
+        run; :meth:`restore` reads them back."""
+        items = sorted(self._heap, key=lambda item: item[1])
+        following = next(self._counter)  # the arrival number of the next rollout
+        self._counter = itertools.count(following)
+        out = {"reward": np.array([item[0] for item in items]),
+               "order": np.array([item[1] for item in items], dtype=float),
+               "next": np.array(float(following))}
+        if items:
+            out["theta"] = np.stack([item[2] for item in items])
+            if items[0][3] is not None:
+                out["nu"] = np.stack([item[3] for item in items])
+        return out
+
+    @classmethod
+    def restore(cls, state: dict, n_best: int = 10, responsibility_weighted: bool = False
+                ) -> PoWER:
+        """A sampler holding the rollouts of :meth:`state` (the same later updates)."""
+        learner = cls(n_best=n_best, responsibility_weighted=responsibility_weighted)
+        order = np.asarray(state["order"], dtype=float)
+        if order.size > n_best:
+            raise ValueError(f"{order.size} kept rollouts, more than n_best = {n_best}")
+        for k in range(order.size):
+            nu = None if "nu" not in state else np.array(state["nu"][k], dtype=float)
+            item = (float(state["reward"][k]), int(order[k]),
+                    np.array(state["theta"][k], dtype=float), nu)
+            heapq.heappush(learner._heap, item)
+        following = int(state["next"]) if "next" in state else (
+            int(order.max()) + 1 if order.size else 0)
+        learner._counter = itertools.count(following)
+        return learner

@@ -17,9 +17,19 @@ Outcome classes (one per episode):
 Independently of the class, ``double_bounce`` (the serve bounced twice on the robot's half before
 any hit) and ``robot_table`` (the robot touched the table) are recorded as faults.
 
-Reward in [0, 1] (documented in docs/referee.md): 0 when missed; 0.2 for a hit that is not
-returned; a legal return earns 0.6 + 0.4 exp(-d^2 / (2 sigma^2)) with d the landing distance from
-the target and sigma = ``reward_sigma`` (0.3 m). Any robot-table contact caps the reward at 0.1.
+Reward in [0, 1] (the paper's r of Eq. 10 and Algorithm 3, which it does not define further): 0
+when missed; 0.2 for a hit that is not returned; a legal return earns
+``r_0 + (1 - r_0) exp(-d^2 / (2 sigma^2))`` with d the landing distance from the target, sigma =
+``reward_sigma`` (0.3 m) and the floor ``r_0 = return_floor`` (0.3). Any robot-table contact caps
+the reward at 0.1.
+
+Why the floor is 0.3 (it was 0.6): responsibility learning (Eq. 10) eventually prunes a primitive
+whose mean credited reward stays below ``1 + zeta ln(threshold) / kappa`` (0.42 with the defaults
+of :class:`tt_drake.responsibility.ResponsibilityParams`). With a floor of 0.6 no primitive that
+returns the ball could ever be pruned, however far off it aims. With 0.3, a return on target
+(d <= 0.2 m) earns at least 0.86 and one landing 0.5 m off 0.47, and returns landing more than
+0.56 m off earn less than the pruning level. The floor only changes the reward: which strokes
+count as legal returns, hits or misses is decided as before.
 """
 
 
@@ -47,6 +57,7 @@ class RefereeConfig:
     target_y: float = TARGET.y
     target_radius: float = 0.2  # a landing within this distance counts as "on target" (m)
     reward_sigma: float = 0.3  # m
+    return_floor: float = 0.3  # reward of a legal return landing far from the target
     velocity_jump: float = 0.25  # m/s of unexplained velocity change that signals a contact
     racket_reach: float = 0.15  # contact within this distance of the racket centre is a hit (m)
 
@@ -219,14 +230,21 @@ def judge(events: list[ContactEvent], robot_touched_table: bool = False,
     return _scored(outcome, config)
 
 
+def return_reward(distance: float, config: RefereeConfig | None = None) -> float:
+    """The reward of a legal return landing ``distance`` metres from the target:
+    ``r_0 + (1 - r_0) exp(-d^2 / (2 sigma^2))`` (module docstring)."""
+    config = config or RefereeConfig()
+    floor, d = config.return_floor, float(distance)
+    return floor + (1.0 - floor) * math.exp(-d * d / (2.0 * config.reward_sigma**2))
+
+
 def _scored(outcome: Outcome, config: RefereeConfig) -> Outcome:
     if not outcome.hit:
         reward = 0.0
     elif not outcome.returned:
         reward = 0.2
     else:
-        d = outcome.target_distance
-        reward = 0.6 + 0.4 * math.exp(-d * d / (2.0 * config.reward_sigma**2))
+        reward = return_reward(outcome.target_distance, config)
     if "robot_table" in outcome.faults:
         reward = min(reward, 0.1)
     outcome.reward = reward

@@ -45,7 +45,7 @@ EPISODE_FIELDS: dict = {
     "hit_time": _scalar("simulation time of the racket's contact (in a recording the clock "
                         "runs on from the earlier episodes)", "s"),
     "reward": _scalar("reward in [0, 1] (tt_drake.referee_rules): 0 missed, 0.2 hit but "
-                      "not returned, 0.6 + 0.4 exp(-d^2 / (2 sigma^2)) for a legal return"),
+                      "not returned, 0.3 + 0.7 exp(-d^2 / (2 sigma^2)) for a legal return"),
     "arm": {
         "joint_limit_excess": _scalar("largest excursion of a joint beyond its limit", "rad"),
         "max_joint_speed": _scalar("largest joint speed", "rad/s"),
@@ -66,6 +66,8 @@ EPISODE_FIELDS: dict = {
         "replans": _scalar("how many times the stroke was planned"),
         "fallback": _scalar("the primitives' plan left the limits: the teacher's quintics "
                             "carried the stroke"),
+        "early_prediction": _scalar("the hitting stage began before the predictor's final "
+                                    "(GPR) prediction, on an early physical-model one"),
     },
 }
 

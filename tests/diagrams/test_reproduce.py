@@ -76,7 +76,8 @@ class _Rollouts:
     def __init__(self, fail_at_batch: int | None = None):
         self.fail_at_batch, self.batches, self.gammas = fail_at_batch, 0, []
 
-    def __call__(self, folder, scenario, player, serves, seed, gamma=None, desc=""):
+    def __call__(self, folder, scenario, player, serves, seed, gamma=None, desc="",
+                 weights=None):
         if self.fail_at_batch is not None and self.batches == self.fail_at_batch:
             raise KeyboardInterrupt
         self.batches += 1
@@ -142,3 +143,185 @@ def test_report_rows_compare_with_the_paper_and_say_the_shortfall():
     assert final["value"] == 0.9 and "partial" in final["ours"] and "9 fallback" in final["ours"]
     assert final["shortfall"] == "4.0 points below the paper"
     assert "real" not in rows and "gamma1" not in rows
+
+
+SMALL_POWER = rp.ReproduceConfig(power_rollouts=90, power_batch=30, power_sigma=0.2)
+
+
+class _ExploringRollouts:
+    """Each rollout is carried by one primitive (in turn); it returns the ball and lands
+    |theta_i[0, 0] - 0.3| metres from the target, theta the rollout's explored weights: the
+    library's zero weights start 0.3 m off."""
+
+    def __init__(self, fail_at_batch: int | None = None):
+        self.fail_at_batch, self.batches, self.first_weights = fail_at_batch, 0, []
+
+    def __call__(self, folder, scenario, player, serves, seed, gamma=None, desc="",
+                 weights=None):
+        from tt_drake.referee_rules import return_reward
+
+        if self.fail_at_batch is not None and self.batches == self.fail_at_batch:
+            raise KeyboardInterrupt
+        self.batches += 1
+        alive = np.flatnonzero(np.asarray(gamma) > 0)
+        out = []
+        for k in range(serves):
+            theta = weights(k)
+            if k == 0:
+                self.first_weights.append(theta)
+            i = int(alive[k % len(alive)])
+            d = abs(theta[i, 0, 0] - 0.3)
+            e = _episode(True, return_reward(d), [i], [1.0])
+            e["stroke"]["stimulus"] = np.eye(3, 6)[i].tolist()
+            out.append(e)
+        return out
+
+
+def _power(root, rollouts, monkeypatch):
+    from types import SimpleNamespace
+
+    run = rp.Run(root, SMALL_POWER, quick=False, workers=1, progress=False)
+    lib = run.folder("responsibility") / "library_learned.npz"
+    if not lib.exists():
+        _library(lib)
+        (run.folder("responsibility") / "result.json").write_text(
+            json.dumps({"library": "responsibility/library_learned.npz"}))
+    monkeypatch.setattr(run, "rollouts", rollouts)
+    monkeypatch.setattr(rp, "_learned", lambda run, *args, **kwargs: SimpleNamespace(
+        learned=SimpleNamespace(library="")))
+    return rp.stage_power(run)
+
+
+def test_power_stage_moves_the_weights_towards_better_strokes_and_resumes(tmp_path, monkeypatch):
+    straight = _ExploringRollouts()
+    whole = _power(tmp_path / "whole", straight, monkeypatch)
+    library, _, _ = load_player_library(tmp_path / "whole" / whole["library"])
+    assert library.n_primitives == 3 and whole["pruned"] == 0
+    off = np.abs(library.weights[:, 0, 0] - 0.3)
+    assert np.all(off < 0.2)  # from 0.3 m off
+    curve = np.array(whole["curve"])
+    assert curve[:, 0].tolist() == [30, 60, 90] and np.all(np.diff(curve[:, 1]) > 0)
+    assert curve[:, 5].tolist() == [3, 3, 3]  # every primitive took part in every batch
+    # exploration: each batch explores around that batch's mean, seeded by batch and rollout
+    assert not np.allclose(straight.first_weights[0], straight.first_weights[1])
+
+    interrupted = _ExploringRollouts(fail_at_batch=2)
+    with pytest.raises(KeyboardInterrupt):
+        _power(tmp_path / "resumed", interrupted, monkeypatch)
+    rest = _ExploringRollouts()
+    resumed = _power(tmp_path / "resumed", rest, monkeypatch)
+    assert rest.batches == 1  # only the missing batch ran again
+    np.testing.assert_array_equal(rest.first_weights[0], straight.first_weights[2])
+    assert resumed["curve"] == whole["curve"]
+    again, _, _ = load_player_library(tmp_path / "resumed" / resumed["library"])
+    np.testing.assert_array_equal(again.weights, library.weights)
+
+
+def test_hard_protocol_splits_the_training_serves_and_deals_each_pool_without_repeats(
+        tmp_path, monkeypatch):
+    from types import SimpleNamespace
+
+    from tt_drake.serves import ServeSampler
+
+    warmed = []  # pools are flown once in this process, before any worker forks
+    monkeypatch.setattr(ServeSampler, "pool", lambda self: warmed.append(self.distribution))
+    run = rp.Run(tmp_path / "hard", SMALL, quick=False, workers=1, progress=False,
+                 protocol="hard")
+    calls = []
+
+    def rollouts(folder, scenario, player, serves, seed, gamma=None, desc="", weights=None):
+        calls.append((folder.name, scenario.launcher.distribution, scenario.launcher.run_seed,
+                      serves, seed))
+        return [{"i": weights(i) if weights else None} for i in range(serves)]
+
+    run.rollouts = rollouts
+    scenario = SimpleNamespace(launcher=SimpleNamespace(distribution="default", run_seed=-1,
+                                                        spin_max=0.0, real_serves="",
+                                                        rallies=""))
+    out = run.train_rollouts(tmp_path / "stage", scenario, "momp", 8, 50,
+                             weights=lambda i: 100 + i)
+    assert calls == [("spin", "spin", 50, 3, 50), ("real-train", "real-train", 50, 3, 50),
+                     ("rally-train", "rally-train", 50, 2, 50)]
+    # the rollout function's weights are indexed over the whole list, in distribution order
+    assert [e["i"] for e in out] == list(range(100, 108))
+    assert warmed == ["real-train", "rally-train"]
+    assert scenario.launcher.distribution == "default"  # the caller's scenario is not changed
+    # the paper protocol: one distribution, the folder as given
+    paper = rp.Run(tmp_path / "paper", SMALL, quick=False, workers=1, progress=False)
+    paper.rollouts = rollouts
+    calls.clear()
+    paper.train_rollouts(tmp_path / "stage", scenario, "momp", 8, 50)
+    assert calls == [("stage", "default", -1, 8, 50)]
+
+
+def test_a_hard_run_is_kept_apart_from_a_paper_run_and_a_bad_protocol_is_refused(tmp_path,
+                                                                                  capsys):
+    rp.Run(tmp_path / "a", SMALL, quick=False, workers=1, progress=False)
+    with pytest.raises(rp.ReproduceError, match="another run"):
+        rp.Run(tmp_path / "a", SMALL, quick=False, workers=1, progress=False, protocol="hard")
+    with pytest.raises(rp.ReproduceError, match="unknown protocol 'easy'"):
+        rp.reproduce(tmp_path / "b", protocol="easy")
+    assert not (tmp_path / "b").exists()
+    with pytest.raises(SystemExit) as exit_:
+        main(["reproduce", "--out", str(tmp_path / "c"), "--protocol", "easy"])
+    assert exit_.value.code == 2 and "--protocol" in capsys.readouterr().err
+    assert not (tmp_path / "c").exists()
+
+
+def test_ceiling_rates_count_the_primitives_returns_among_the_returnable_serves():
+    episodes = [_episode(True, 1.0, [0], [1.0]), _episode(True, 0.9, [0], [1.0], fallback=True),
+                _episode(True, 0.8, [0], [1.0]), _episode(False, 0.0, [0], [1.0])]
+    oracle = [{"returned": True}, {"returned": True}, {"returned": False},
+              {"returned": True}]
+    r = rp.ceiling_rates(episodes, oracle)
+    # serve 2 is returned but not returnable by the oracle: it is outside the ceiling's count
+    assert r == {"returnable_serves": 3, "returnable_rate": 0.75, "returns_of_returnable": 1,
+                 "return_rate_of_returnable": pytest.approx(1 / 3)}
+    assert rp.ceiling_rates(episodes, [{"returned": False}] * 4)["return_rate_of_returnable"] \
+        is None
+
+
+def test_rates_count_the_strokes_carried_by_an_early_prediction():
+    episodes = [_episode(True, 1.0, [0], [1.0]) for _ in range(3)]
+    episodes[1]["stroke"]["early_prediction"] = True
+    assert rp.rates(episodes)["early_strokes"] == 1
+
+
+def test_hard_report_rows_give_the_ceiling_and_the_early_strokes():
+    from tt_drake.diagrams.report import table_rows
+
+    r = {"return_rate": 0.5, "target_rate": 0.3, "momp_return_rate": 0.4,
+         "momp_target_rate": 0.25, "serves": 10, "seed": 7, "distribution": "real-test",
+         "returnable_serves": 5, "returns_of_returnable": 4, "return_rate_of_returnable": 0.8,
+         "returnable_rate": 0.5, "early_strokes": 2}
+    rows = table_rows({"gamma1": {"evaluation": {"real-test": r}},
+                       "final": {"library": "power/library_power.npz", "real-test": r}})
+    before, after = rows
+    teacher = {"distributions": {"spin": {}, "real-train": {}}}
+    single = {"min_return": 0.1, "max_return": 0.2, "primitives": [1], "serves": 5, "seed": 30}
+    (mixed,) = table_rows({"teacher": teacher, "single": single})
+    assert mixed["command"].endswith("(serves split among spin, real-train)")
+    assert before["key"] == "hard_gamma1" and "real-test serves" in before["experiment"]
+    assert after["key"] == "hard_final" and "power/library_power.npz" in after["command"]
+    for row in rows:
+        assert "4 of the 5 serves the oracle teacher returns = 80.0 % of the ceiling" in \
+            row["ours"]
+        assert "2 strokes began on an early physical-model prediction" in row["ours"]
+
+
+def test_the_hard_protocol_trains_its_library_crkr_and_predictor_with_its_own_settings():
+    """The paper profile's stages read the run's config (the shipped artefacts' settings); the
+    hard profile's library and CrKR take HARD_PROFILE (recorded strokes, alpha_y 15, spin in the
+    stimulus) and its GPR the spin features, trained on its training mix."""
+    from tt_drake.diagrams.reproduce import PROTOCOLS, quick_config
+    from tt_drake.diagrams.train import library_options, stimulus_of
+    from tt_drake.stimulus import PAPER_STIMULUS, SPIN_STIMULUS
+
+    config = quick_config()
+    assert PROTOCOLS["paper"].library_settings(config) is config
+    assert stimulus_of(PROTOCOLS["paper"].library_settings(config)) == PAPER_STIMULUS
+    assert PROTOCOLS["paper"].predictor_features == "states"
+    hard = library_options(PROTOCOLS["hard"].library_settings(config))
+    assert hard["stimulus"] == SPIN_STIMULUS and hard["dmp"].alpha_y == 15.0
+    assert hard["demonstrations"] == "recorded" and hard["hitting_borrow"] == 0.0
+    assert PROTOCOLS["hard"].predictor_features == "states+spin"

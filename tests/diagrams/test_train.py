@@ -123,6 +123,10 @@ def test_only_the_momp_player_acts_on_early_predictions(artefacts):
     final = predictor.GetOutputPort("p_hit").Eval(predictor.GetMyContextFromRoot(diagram.context))
     assert result.stroke["replans"] == 1
     np.testing.assert_allclose(result.stroke["stimulus"][:3], final, atol=1e-5)
+    # It planned on the final prediction only: its hitting stage cannot have begun on an early
+    # physical-model one (the count reproduce reports).
+    assert result.stroke["early_prediction"] is False
+
 
 
 def test_recorded_spin_library_and_crkr_from_the_cli(artefacts, tmp_path, capsys):
@@ -227,3 +231,26 @@ def test_spin_stimulus_is_exercised_in_the_serve_diagram(artefacts, tmp_path):
     model, _ = load_configuration_model(crkr)
     q_hit, _, _ = model.predict(stimulus, variance=False)
     np.testing.assert_allclose(stroke.q_hit, q_hit, atol=1e-12)
+
+
+@pytest.mark.slow
+def test_strokes_begun_on_an_early_prediction_are_flagged_only_when_the_player_acts_on_them():
+    """With early predictions (the default) some fast serves' hitting stages begin before the
+    GPR's final prediction; with ``early_prediction = false`` the player waits for it, and no
+    stroke may be flagged."""
+    from importlib.resources import files
+
+    from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
+
+    models = files("tt_drake.models") / "learned"
+    flagged = {}
+    for early in (True, False):
+        scenario = load_scenario()
+        scenario.learned.library = str(models / "library.npz")
+        scenario.learned.crkr = str(models / "crkr.npz")
+        scenario.learned.predictor = str(models / "predictor.npz")
+        scenario.learned.early_prediction = early
+        diagram = ServeDiagram(scenario, "momp")
+        flagged[early] = [diagram.run(episode_seed(40, i)).stroke["early_prediction"]
+                          for i in range(6)]
+    assert any(flagged[True]) and not any(flagged[False])

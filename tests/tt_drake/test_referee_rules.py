@@ -87,7 +87,25 @@ def test_legal_return_on_target():
 def test_legal_return_off_target_earns_less():
     outcome = judge(script(SERVE, crossing_time(), return_velocity(1.2)))
     assert outcome.outcome == "returned" and not outcome.on_target
-    assert 0.6 < outcome.reward < 0.95
+    d = outcome.target_distance
+    assert outcome.reward == pytest.approx(0.3 + 0.7 * math.exp(-d * d / (2 * 0.3**2)))
+    assert 0.3 < outcome.reward < 0.95
+
+
+def test_a_legal_return_far_off_target_is_worth_less_than_the_pruning_level():
+    """Responsibility learning eventually prunes a primitive whose mean reward stays below
+    ResponsibilityParams().prune_below_reward: a return that always lands far off must be."""
+    from tt_drake.responsibility import ResponsibilityParams
+
+    far = judge(script(SERVE, crossing_time(), return_velocity(1.3)))
+    near = judge(script(SERVE, crossing_time(), return_velocity(TARGET.y)))
+    assert far.returned and near.returned and far.target_distance > 0.6
+    assert far.reward < ResponsibilityParams().prune_below_reward < near.reward
+    # the floor changes rewards only: a return is legal whatever it is worth
+    floored = judge(script(SERVE, crossing_time(), return_velocity(1.3)),
+                    config=RefereeConfig(return_floor=0.9))
+    assert floored.outcome == far.outcome and floored.landing == far.landing
+    assert floored.reward > 0.9
 
 
 def test_net_fault():

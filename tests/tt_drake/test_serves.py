@@ -1,10 +1,12 @@
 """Serve distributions: reproducibility, validity and coverage of the hitting region."""
 
 import json
+import time
 
 import numpy as np
 import pytest
 
+from tt_drake.ball_model import BallModel
 from tt_drake.constants import HITTING_REGION, PLANES
 from tt_drake.seeds import episode_seed
 from tt_drake.serves import (
@@ -197,3 +199,24 @@ def test_a_split_of_a_file_without_ids_is_refused(tmp_path):
             ServeSampler(name, real_path=path).check()
     with pytest.raises(ServeError, match="has no record ids"):
         ServeSampler("rally-test", rally_path=path).check()
+
+
+def test_a_pool_is_flown_once_per_process_and_again_when_its_file_changes(tmp_path,
+                                                                         monkeypatch):
+    import tt_drake.serves as serves
+
+    path = _write_balls(tmp_path / "balls.json", _real_like(6, seed=2))
+    flown = []
+    original = serves.reaches_robot_half
+    monkeypatch.setattr(serves, "reaches_robot_half",
+                        lambda model, state: flown.append(1) or original(model, state))
+    first = ServeSampler("real", real_path=path).pool()
+    assert len(flown) == 6
+    again = ServeSampler("real", real_path=path, run_seed=3).pool()
+    assert again is first and len(flown) == 6  # a new sampler (a new diagram) reuses it
+    assert ServeSampler("real", real_path=path, model=BallModel(dt=4e-3)).pool() is not first
+    assert len(flown) == 12  # another flight model flies the balls again
+    time.sleep(0.05)
+    _write_balls(path, _real_like(5, seed=3))
+    ServeSampler("real", real_path=path).pool()
+    assert len(flown) == 17  # a changed file's five balls are flown
