@@ -59,7 +59,7 @@ from tt_drake.stages import (
     within_effort,
 )
 from tt_drake.systems.immutable import Immutable
-from tt_drake.systems.stage_player import StagePlanPlayer
+from tt_drake.systems.stage_player import StagePlanPlayer, remaining
 
 
 @dataclass(frozen=True)
@@ -107,8 +107,12 @@ def joint_limits() -> JointLimits:
 class MoMPTrajectorySource(StagePlanPlayer):
     def __init__(self, library: MotorPrimitiveLibrary | None, stages: dict | None,
                  config: MoMPConfig | None = None, rate: float = wp.PLANNING_RATE, q_await=None,
-                 arm=None, setpoint_lead: float = 0.0):
+                 arm=None, setpoint_lead: float = 0.0, play_again: bool = False):
+        """``play_again`` (the rally): after the planned hit, once the predictor has dropped its
+        prediction (it saw the ball fly away: ``HittingPointPredictor.play_again``), the
+        player is free again for the next ball, as ``AnalyticalPlayer.play_again``."""
         super().__init__(setpoint_lead)
+        self.play_again = play_again
         self.library, self.stages, self.arm = library, stages, arm
         self.config = config or MoMPConfig()
         self.limits = joint_limits()
@@ -145,9 +149,13 @@ class MoMPTrajectorySource(StagePlanPlayer):
 
     def _update(self, context, state):
         old = self.player_state(context)
-        if old.committed:
-            return
         now = context.get_time()
+        if old.committed:
+            if (self.play_again and old.stroke is not None and now > old.stroke.t_hit
+                    and self._valid.Eval(context)[0] < 0.5):
+                state.get_mutable_abstract_state(self._index).set_value(
+                    _State(remaining(old.plan, now), None, False, old.seen))
+            return
         plan = old.plan
         hit = next((seg for stage, seg in plan.segments if stage == HITTING), None)
         if hit is not None and now >= hit.t0:  # the hitting stage has begun: no more re-plans

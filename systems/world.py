@@ -42,6 +42,12 @@ class WorldConfig:
     simulator: SimulatorConfig = field(default_factory=default_simulator_config)
     models: ModelFiles = field(default_factory=ModelFiles)
     with_robot: bool = True
+    # A second WAM at the other end of the table (the rally, docs/rally.md): the first one's
+    # model and mount turned a half-turn about the vertical axis through the table centre.
+    with_second_robot: bool = False
+
+
+SECOND_ROBOT_PREFIX = "b"  # the second robot's model instance is ``b::<the robot's model>``
 
 
 class ModelFileError(FileNotFoundError):
@@ -68,6 +74,7 @@ class World:
     table: ModelInstanceIndex
     ball: ModelInstanceIndex
     robot: ModelInstanceIndex | None
+    robot_b: ModelInstanceIndex | None = None  # the second robot (``with_second_robot``)
 
     @property
     def ball_body(self):
@@ -79,7 +86,7 @@ def add_world(builder: DiagramBuilder, config: WorldConfig | None = None) -> Wor
     config = config or WorldConfig()
     plant, scene_graph = AddMultibodyPlant(config.plant, builder)
     parser = Parser(plant)
-    table = ball = robot = None
+    table = ball = robot = robot_b = None
     name = config.models.table
     try:  # Drake's parser errors on a file that parses as XML but is no valid model: one line
         (table,) = parser.AddModels(str(model_path(name)))
@@ -90,11 +97,14 @@ def add_world(builder: DiagramBuilder, config: WorldConfig | None = None) -> Wor
 
             name = config.models.robot
             robot = add_wam(plant, urdf=model_path(name))
+            if config.with_second_robot:
+                robot_b = add_wam(plant, urdf=model_path(name), mirrored=True,
+                                  name_prefix=SECOND_ROBOT_PREFIX)
     except (RuntimeError, ValueError) as err:
         first = next((line for line in str(err).splitlines() if line.strip()), type(err).__name__)
         raise ModelFileError(f"cannot load model file {name}: {first.strip()}") from None
     plant.Finalize()
-    return World(plant, scene_graph, table, ball, robot)
+    return World(plant, scene_graph, table, ball, robot, robot_b)
 
 
 def ball_state_indices(world: World) -> tuple[int, int]:
