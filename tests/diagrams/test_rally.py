@@ -159,3 +159,16 @@ def test_rally_cli_writes_the_summary_and_one_record_per_rally(tmp_path, capsys)
     assert data["summary"]["players"]["B"]["success_rate"] == 0.0
     assert data["players"] == ["analytical", "idle"] and data["scenario"]["rally"]
     assert "1 rallies" in capsys.readouterr().out
+
+
+@pytest.mark.slow
+def test_rallies_on_two_workers_are_the_serial_rallies():
+    from tt_drake.diagrams.rally import run_rallies
+    from tt_drake.diagrams.scenario import load_scenario
+
+    def rallies(workers):
+        data = run_rallies(load_scenario(), ("analytical", "analytical"), 3, 5, progress=False,
+                           workers=workers, max_exchanges=2)
+        return [r | {"wall_time": 0} for r in data["rallies"]]
+
+    assert rallies(2) == rallies(1)
