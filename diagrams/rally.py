@@ -230,11 +230,6 @@ class RallyDiagram:
         self._set_awaiting_posture()
         self._initial = self.context.Clone()
 
-    @property
-    def library(self):
-        """Side A's primitive library (None unless it is a momp player)."""
-        return getattr(self.player_systems[0], "library", None)
-
     def _set_awaiting_posture(self) -> None:
         from tt_drake.wam_params import AWAITING
 
@@ -364,7 +359,7 @@ def run_rallies(scenario: Scenario, players: tuple[str, str], rallies: int, seed
     if html or workers <= 1:
         diagram = RallyDiagram(scenario, players, log=bool(html))
         if html:
-            recording = RallyRecording(scenario, diagram.library)
+            recording = RallyRecording(scenario)
         runs = (diagram.run(s) for s in seeds)
     else:
         from tt_drake.diagrams.parallel import run_episodes
@@ -390,8 +385,9 @@ def run_rallies(scenario: Scenario, players: tuple[str, str], rallies: int, seed
 def format_rally_summary(data: dict) -> str:
     s = data["summary"]
     a, b = data["players"]
-    line = (f"{a} (A) vs {b} (B), {s['rallies']} rallies from a {data['start']} ball (seed "
-            f"{data['seed']}): mean {s['mean_length']:.1f} exchanges, median "
+    n = s["rallies"]
+    line = (f"{a} (A) vs {b} (B), {n} rall{'y' if n == 1 else 'ies'} from a {data['start']} "
+            f"ball (seed {data['seed']}): mean {s['mean_length']:.1f} exchanges, median "
             f"{s['median_length']:g}, {s['capped']} reached the cap")
     for side, p in s["players"].items():
         rate = "n/a" if p["success_rate"] is None else f"{p['success_rate']:.1%}"
@@ -404,7 +400,7 @@ class RallyRecording:
     path and each landing), built as :class:`tt_drake.diagrams.recording.Recording` builds the
     serves'; saved with ``StaticHtml``."""
 
-    def __init__(self, scenario: Scenario, library=None):
+    def __init__(self, scenario: Scenario):
         from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams, Rgba, Sphere
         from pydrake.systems.framework import DiagramBuilder
 

@@ -158,7 +158,7 @@ def test_rally_cli_writes_the_summary_and_one_record_per_rally(tmp_path, capsys)
     assert rally["fault"]["kind"] in ("missed", "double_bounce")
     assert data["summary"]["players"]["B"]["success_rate"] == 0.0
     assert data["players"] == ["analytical", "idle"] and data["scenario"]["rally"]
-    assert "1 rallies" in capsys.readouterr().out
+    assert "1 rally from a serve ball (seed 3)" in capsys.readouterr().out
 
 
 @pytest.mark.slow
