@@ -15,6 +15,8 @@
     tt-drake serve --player crkr [--crkr FILE --predictor FILE] ...  (CrKR + teacher's quintics)
     tt-drake reproduce --out DIR [--quick] [--workers N] [--executor local|ray]
                        [--protocol paper|hard]
+    tt-drake rally --players A B --rallies N --seed S [--start serve|rally] [--max-exchanges 50]
+                   [--html out.html] [--json out.json] [--workers W]   (docs/rally.md)
     tt-drake --version
 
 Bad input (an unknown or malformed scenario field, a missing model or data file, an unknown
@@ -200,6 +202,31 @@ def build_parser() -> argparse.ArgumentParser:
     _add_scenario_options(serve)
     _add_learned_options(serve)
 
+    rally = command("rally", help="two robots, one at each end of the table, keep a ball in "
+                                  "play (docs/rally.md)")
+    rally.add_argument("--players", nargs=2, metavar=("A", "B"), default=["analytical",
+                                                                         "analytical"],
+                       type=_one_of("player", PLAYER_NAMES),
+                       help=f"robot A's and robot B's players, each one of "
+                            f"{', '.join(PLAYER_NAMES)}")
+    rally.add_argument("--rallies", type=_serve_count, default=10, help="number of rallies")
+    rally.add_argument("--seed", type=_seed, default=0, help="base seed of the run")
+    rally.add_argument("--start", choices=("serve", "rally"), default="serve",
+                       help="the first ball, to robot A: a launcher serve of the scenario's "
+                            "distribution, or a real rally ball (rallies.json)")
+    rally.add_argument("--max-exchanges", type=_positive_int, default=None,
+                       help="stop a rally after this many exchanges (default: the scenario's, "
+                            "50)")
+    rally.add_argument("--html", default=None, help="write a self-contained Meshcat recording")
+    rally.add_argument("--json", default=None, help="write the summary and one record per rally")
+    rally.add_argument("--quiet", action="store_true", help="no progress bar")
+    rally.add_argument("--workers", type=_positive_int, default=1,
+                       help="parallel worker processes (not with --html)")
+    _add_scenario_options(rally)
+    _add_learned_options(rally)
+    # The shipped CrKR model learned the serve task's target; the rally aims elsewhere.
+    rally.set_defaults(configuration="analytical")
+
     bench = command("bench", help="time serve episodes against a C++ reference diagram")
     bench.add_argument("--serves", type=_serve_count, default=10, help="number of serves")
     bench.add_argument("--seed", type=_seed, default=0, help="base seed of the run")
@@ -372,6 +399,46 @@ def _serve(args) -> None:
               "--player momp", file=sys.stderr)
 
 
+def _rally(args) -> None:
+    from tt_drake.diagrams.rally import format_rally_summary, run_rallies
+
+    players = tuple(args.players)
+    for player in players:
+        _check_player(player)
+    args.player = None  # the shipped artefacts are chosen by _use_rally_artefacts
+    scenario = _scenario(args)
+    _use_rally_artefacts(players, scenario)
+    for player in players:
+        _check_learned(player, scenario)
+    data = run_rallies(scenario, players, args.rallies, args.seed, args.start, args.html,
+                       args.json, progress=not args.quiet, workers=args.workers,
+                       max_exchanges=args.max_exchanges)
+    print(format_rally_summary(data))
+    for path in (args.json, args.html):
+        if path:
+            print(f"wrote {path}")
+
+
+def _use_rally_artefacts(players: tuple, scenario) -> None:
+    """Learned players given no artefact play the rally with the shipped primitive library
+    (``momp``) and, only with ``--configuration crkr``, the shipped CrKR model; the hitting
+    point comes from the physical model: the shipped GPR and CrKR learned launcher serves and
+    the serve task's target, and fail on the other robot's returns (docs/rally.md)."""
+    from tt_drake.models import shipped_artefact
+
+    learned = scenario.learned
+    if not set(players) & {"momp", "crkr"} or learned.library or learned.crkr \
+            or learned.predictor:
+        return
+    if "momp" in players:
+        learned.library = str(shipped_artefact("library"))
+    if learned.configuration == "crkr":
+        learned.crkr = str(shipped_artefact("crkr"))
+    print(f"tt-drake: the learned players use the shipped artefacts in "
+          f"{shipped_artefact('library').parent} (hitting configuration: "
+          f"{learned.configuration}; hitting point: the physical model)", file=sys.stderr)
+
+
 def _serves(args) -> None:
     from tt_drake.serves import DISTRIBUTIONS, POOLS, pool_counts
 
@@ -474,7 +541,7 @@ def _reproduce(args) -> None:
 
 
 COMMANDS = {"reproduce": _reproduce, "serve": _serve, "bench": _bench, "collect": _collect,
-            "models": _models, "serves": _serves,
+            "models": _models, "serves": _serves, "rally": _rally,
             "train-predictor": _train_predictor, "eval-predictor": _eval_predictor,
             "train": _train}
 

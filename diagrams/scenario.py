@@ -17,6 +17,7 @@ from typing import Any
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
 from tt_drake.camera_model import CameraConfig
+from tt_drake.rally_rules import RallyConfig
 from tt_drake.referee_rules import RefereeConfig
 from tt_drake.systems.aerodynamics import AerodynamicsConfig
 from tt_drake.systems.ball_launcher import LauncherConfig
@@ -90,6 +91,8 @@ class Scenario:
     # What the players see: ``camera`` (60 Hz, noisy, through the EKF) or ``oracle`` (the
     # simulator's true ball state at 60 Hz, no noise; docs/serves.md).
     perception: str = "camera"
+    # ``tt-drake rally`` (docs/rally.md): the players' aim, the cap on exchanges.
+    rally: RallyConfig = field(default_factory=RallyConfig)
 
 
 class ScenarioError(ValueError):
@@ -237,6 +240,12 @@ FIELD_RULES: dict[str, Check] = {
     "referee.velocity_jump": number(above=0.0),
     "referee.racket_reach": number(above=0.0),
     "referee_rate": number(above=0.0, maximum=MAX_RATE),
+    "rally.target_x": number(),
+    "rally.target_y": number(above=0.0),
+    "rally.flight_times": lambda v: (None if v and all(number(above=0.0)(t) is None for t in v)
+                                     else "needs one or more numbers > 0"),
+    "rally.max_exchanges": number(minimum=1),
+    "rally.exchange_timeout": number(above=0.0),
     "controller.kp": each(7, number(minimum=0.0, above=0.0)),
     "controller.ki": each(7, number(minimum=0.0)),
     "controller.kd": each(7, number(minimum=0.0, above=0.0)),

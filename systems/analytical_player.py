@@ -65,7 +65,7 @@ from tt_drake.stages import (
     within_effort,
 )
 from tt_drake.systems.immutable import Immutable
-from tt_drake.systems.stage_player import StagePlanPlayer
+from tt_drake.systems.stage_player import StagePlanPlayer, remaining
 
 
 @dataclass(frozen=True)
@@ -107,6 +107,8 @@ class PlannerConfig:
     times: StageTimes = StageTimes()
     # Where a ball off the plane may be hit (tt_drake.hitting_time); None: the plane only.
     band: HittingBand | None = HittingBand()
+    # The return's candidate flight times to the target (s; racket_law.aim_candidates).
+    flight_times: tuple[float, ...] = FLIGHT_TIMES
 
 
 #: How much larger than the table the planner's model takes it (m): the launcher serves only onto
@@ -178,7 +180,7 @@ class StrokePlanner:
         cfg = self.config
         close = previous is not None and float(
             np.linalg.norm(np.asarray(p_hit) - previous.p_hit)) < cfg.research_distance
-        times = (previous.flight_time,) if close else FLIGHT_TIMES
+        times = (previous.flight_time,) if close else cfg.flight_times
         seed = previous.q_hit if previous is not None else None
         # The ball touches the blade face when its centre is R + t/2 in front of the blade centre.
         contact_offset = BALL.radius + 0.5 * wp.RACKET.blade_thickness
@@ -293,13 +295,19 @@ class AnalyticalPlayer(StagePlanPlayer):
     """``corrections``: after the hitting stage has begun, re-plan its rest when the prediction
     moves more than the racket forgives (:meth:`StrokePlanner.needs_correction`): the spin a
     launcher serve carries is seen only at the robot-side bounce, which for most serves comes
-    after the hitting stage's start (0.4 s before the hit)."""
+    after the hitting stage's start (0.4 s before the hit).
+
+    ``play_again`` (the rally, docs/rally.md): after the planned hit, once the estimator reports
+    the ball flying away (v_y > 0), the player is free again: it keeps the rest of its plan (the
+    follow-through and the return to the awaiting posture) and waits for the next ball coming to
+    it. Without it (``serve``) the player stays committed to its one stroke."""
 
     def __init__(self, planner: StrokePlanner | None = None, rate: float = wp.PLANNING_RATE,
-                 setpoint_lead: float = 0.0, corrections: bool = True):
+                 setpoint_lead: float = 0.0, corrections: bool = True, play_again: bool = False):
         super().__init__(setpoint_lead)
         self.planner = planner or StrokePlanner()
         self.corrections = corrections
+        self.play_again = play_again
         self._estimate = self.DeclareVectorInputPort("estimated_state", 6)
         self._spin = self.DeclareVectorInputPort("estimated_spin", 3)
         self._status = self.DeclareVectorInputPort("estimator_status", 2)
@@ -316,6 +324,10 @@ class AnalyticalPlayer(StagePlanPlayer):
         old = self.player_state(context)
         now = context.get_time()
         if old.committed:
+            if self.play_again and self._ball_gone(context, old, now):
+                state.get_mutable_abstract_state(self._state_index).set_value(
+                    _PlayerState(remaining(old.plan, now), None, False, old.seen))
+                return
             if self.corrections:
                 self._correct(context, state, old, now)
             return
@@ -343,6 +355,13 @@ class AnalyticalPlayer(StagePlanPlayer):
         new_plan = self.planner.plan(now, plan, stroke)
         state.get_mutable_abstract_state(self._state_index).set_value(
             _PlayerState(plan if new_plan is None else new_plan, stroke, False, seen))
+
+    def _ball_gone(self, context, old: _PlayerState, now: float) -> bool:
+        """After the planned hit, the estimator tracks a ball flying away from the robot."""
+        if old.stroke is None or now <= old.stroke.t_hit:
+            return False
+        status = self._status.Eval(context)
+        return status[0] > 0.5 and self._estimate.Eval(context)[4] > 0.0
 
     def _fresh_prediction(self, context, state, old: _PlayerState, committed: bool):
         """(seen, the planner's prediction) from an estimate newer than the last one acted on,

@@ -60,8 +60,11 @@ class HittingPointPredictor(LeafSystem):
                  early: PhysicalPredictor | None = None,
                  early_tolerance: tuple[float, float] = (0.02, 0.01),
                  refresh: PhysicalPredictor | None = None,
-                 refresh_tolerance: tuple[float, float] = (0.02, 0.01)):
+                 refresh_tolerance: tuple[float, float] = (0.02, 0.01), play_again: bool = False):
+        """``play_again`` (the rally): a valid estimate of a ball flying away (v_y > 0) drops
+        the prediction and the observations (``valid`` = 0), ready for the next ball."""
         super().__init__()
+        self.play_again = play_again
         if gpr is None and physical is None:
             physical = PhysicalPredictor()
         self.gpr, self.physical, self.early, self.refresh = gpr, physical, early, refresh
@@ -138,6 +141,11 @@ class HittingPointPredictor(LeafSystem):
         x = context.get_discrete_state(self._xd).get_value()
         t = float(status[1])
         if status[0] < 0.5 or not t > x[1]:
+            return
+        if self.play_again and self._state.Eval(context)[4] > 0.0 and (x[0] > 0 or x[_OUT + 7]):
+            new = np.zeros_like(x)
+            new[1] = t
+            discrete_state.set_value(self._xd, new)
             return
         if x[_OUT + 8] == 1.0:
             if self.refresh is None:

@@ -64,7 +64,7 @@ from tt_drake.stages import (
 )
 from tt_drake.stimulus import PAPER_STIMULUS, compose_stimulus, stimulus_layout, stimulus_size
 from tt_drake.systems.immutable import Immutable
-from tt_drake.systems.stage_player import StagePlanPlayer
+from tt_drake.systems.stage_player import StagePlanPlayer, remaining
 
 
 @dataclass(frozen=True)
@@ -112,8 +112,12 @@ def joint_limits() -> JointLimits:
 class MoMPTrajectorySource(StagePlanPlayer):
     def __init__(self, library: MotorPrimitiveLibrary | None, stages: dict | None,
                  config: MoMPConfig | None = None, rate: float = wp.PLANNING_RATE, q_await=None,
-                 arm=None, setpoint_lead: float = 0.0, stimulus=None):
+                 arm=None, setpoint_lead: float = 0.0, stimulus=None, play_again: bool = False):
+        """``play_again`` (the rally): after the planned hit, once the predictor has dropped its
+        prediction (it saw the ball fly away: ``HittingPointPredictor.play_again``), the
+        player is free again for the next ball, as ``AnalyticalPlayer.play_again``."""
         super().__init__(setpoint_lead)
+        self.play_again = play_again
         # The stimulus layout: the library's if it names one; else ``stimulus`` (for the crkr
         # player the configuration model's, so that its strokes can train it), else the paper's.
         named = None if library is None else library.stimulus_layout
@@ -158,9 +162,13 @@ class MoMPTrajectorySource(StagePlanPlayer):
 
     def _update(self, context, state):
         old = self.player_state(context)
-        if old.committed:
-            return
         now = context.get_time()
+        if old.committed:
+            if (self.play_again and old.stroke is not None and now > old.stroke.t_hit
+                    and self._valid.Eval(context)[0] < 0.5):
+                state.get_mutable_abstract_state(self._index).set_value(
+                    _State(remaining(old.plan, now), None, False, old.seen))
+            return
         plan = old.plan
         hit = next((seg for stage, seg in plan.segments if stage == HITTING), None)
         if hit is not None and now >= hit.t0:  # the hitting stage has begun: no more re-plans

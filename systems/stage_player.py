@@ -17,7 +17,7 @@ its tick).
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from tt_drake.stages import STAGES
+from tt_drake.stages import STAGES, StagePlan
 
 
 class StagePlanPlayer(LeafSystem):
@@ -77,3 +77,10 @@ class StagePlanPlayer(LeafSystem):
 
     def _calc_stroke(self, context, output):
         output.set_value(self.player_state(context).stroke)
+
+
+def remaining(plan: StagePlan, now: float) -> StagePlan:
+    """The segments of ``plan`` not over at ``now`` (the last one if all are): a player free to
+    play again keeps moving as planned, and its next stroke's stages are the only hitting stage
+    its plan holds."""
+    return StagePlan([(s, q) for s, q in plan.segments if q.t_end > now] or plan.segments[-1:])

@@ -58,26 +58,34 @@ def model_file() -> Path:
     return Path(str(resources.files("tt_drake.models").joinpath(MODEL_FILE)))
 
 
-def base_pose_in_world() -> RigidTransform:
-    """X_WB: the base plate frame in the world (hanging from the ceiling mount)."""
-    return RigidTransform(RotationMatrix(np.array(wp.BASE_ROTATION)),
+def base_pose_in_world(mirrored: bool = False) -> RigidTransform:
+    """X_WB: the base plate frame in the world (hanging from the ceiling mount). ``mirrored``:
+    the mount at the other end of the table, the half-turn about the vertical axis through the
+    table centre applied to it (the rally's second robot, :mod:`tt_drake.rally_rules`)."""
+    pose = RigidTransform(RotationMatrix(np.array(wp.BASE_ROTATION)),
                           [MOUNT.mount_x, MOUNT.mount_y, MOUNT.mount_z])
+    if mirrored:
+        pose = RigidTransform(RotationMatrix.MakeZRotation(np.pi)) @ pose
+    return pose
 
 
 def add_wam(plant: MultibodyPlant, *, weld_to_world: bool = True, urdf: str | Path | None = None,
-            scene_graph: SceneGraph | None = None) -> ModelInstanceIndex:
+            scene_graph: SceneGraph | None = None, mirrored: bool = False,
+            name_prefix: str = "") -> ModelInstanceIndex:
     """Parse the WAM + racket into ``plant`` (not finalised) and return its model instance.
 
     ``weld_to_world``: weld ``wam_base`` at :func:`base_pose_in_world`. ``urdf``: another model
     file (default: the packaged one). The file's collision filter group already keeps the robot's
     geometries from colliding with each other; if ``scene_graph`` (the one the plant is
     registered with) is given, the same exclusion is also declared on it directly.
+    ``mirrored``: weld at ``base_pose_in_world(mirrored=True)``; ``name_prefix``: a scoped
+    prefix of the model instance's name (a second WAM needs one: ``"b"`` gives ``b::wam7_racket``).
     """
     path = Path(urdf) if urdf is not None else model_file()
-    (instance,) = Parser(plant).AddModels(str(path))
+    (instance,) = Parser(plant, model_name_prefix=name_prefix).AddModels(str(path))
     if weld_to_world:
         plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(BASE_FRAME, instance),
-                         base_pose_in_world())
+                         base_pose_in_world(mirrored))
     if scene_graph is not None and plant.geometry_source_is_registered():
         scene_graph.collision_filter_manager().Apply(
             CollisionFilterDeclaration().ExcludeWithin(robot_geometries(plant, instance)))

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
+import numpy as np
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, MultibodyPlantConfig
 from pydrake.multibody.tree import ModelInstanceIndex
@@ -48,6 +49,12 @@ class WorldConfig:
     # > 0: the integrator's accuracy while nothing can touch the ball (ContactAccuracy); the
     # simulator's own accuracy applies near every contact. 0: the simulator's accuracy always.
     flight_accuracy: float = 0.0
+    # A second WAM at the other end of the table (the rally, docs/rally.md): the first one's
+    # model and mount turned a half-turn about the vertical axis through the table centre.
+    with_second_robot: bool = False
+
+
+SECOND_ROBOT_PREFIX = "b"  # the second robot's model instance is ``b::<the robot's model>``
 
 
 class ModelFileError(FileNotFoundError):
@@ -74,6 +81,7 @@ class World:
     table: ModelInstanceIndex
     ball: ModelInstanceIndex
     robot: ModelInstanceIndex | None
+    robot_b: ModelInstanceIndex | None = None  # the second robot (``with_second_robot``)
 
     @property
     def ball_body(self):
@@ -85,7 +93,7 @@ def add_world(builder: DiagramBuilder, config: WorldConfig | None = None) -> Wor
     config = config or WorldConfig()
     plant, scene_graph = AddMultibodyPlant(config.plant, builder)
     parser = Parser(plant)
-    table = ball = robot = None
+    table = ball = robot = robot_b = None
     name = config.models.table
     try:  # Drake's parser errors on a file that parses as XML but is no valid model: one line
         (table,) = parser.AddModels(str(model_path(name)))
@@ -96,11 +104,14 @@ def add_world(builder: DiagramBuilder, config: WorldConfig | None = None) -> Wor
 
             name = config.models.robot
             robot = add_wam(plant, urdf=model_path(name))
+            if config.with_second_robot:
+                robot_b = add_wam(plant, urdf=model_path(name), mirrored=True,
+                                  name_prefix=SECOND_ROBOT_PREFIX)
     except (RuntimeError, ValueError) as err:
         first = next((line for line in str(err).splitlines() if line.strip()), type(err).__name__)
         raise ModelFileError(f"cannot load model file {name}: {first.strip()}") from None
     plant.Finalize()
-    return World(plant, scene_graph, table, ball, robot)
+    return World(plant, scene_graph, table, ball, robot, robot_b)
 
 
 def ball_state_indices(world: World) -> tuple[int, int]:
@@ -177,15 +188,25 @@ class ContactAccuracy:
         self._net_top = TABLE.surface_z + NET.height + r + 0.05
         self._net_x = NET.half_span + r + 0.05
         self._radius = r
-        self._racket = None
-        if plant.HasFrameNamed(RACKET_CENTER_FRAME):
-            from tt_drake.systems.hitting_ik import REACH_BOUND, SHOULDER
+        # Every robot's racket (the rally has two): the blade centre stays within REACH_BOUND of
+        # its shoulder, so a ball farther than that (plus the racket's distance) needs no
+        # forward kinematics. SHOULDER is in robot A's world frame; another robot's base pose
+        # maps it to that robot's shoulder.
+        from tt_drake.systems.hitting_ik import REACH_BOUND, SHOULDER
+        from tt_drake.systems.wam import BASE_FRAME, base_pose_in_world
 
-            frame = plant.GetFrameByName(RACKET_CENTER_FRAME)
-            # The blade centre stays within REACH_BOUND of the shoulder: a ball farther than that
-            # (plus the racket's distance) needs no forward kinematics.
-            self._racket = (frame.body(), frame.GetFixedPoseInBodyFrame().translation(),
-                            tuple(float(c) for c in SHOULDER), REACH_BOUND)
+        default = plant.CreateDefaultContext()
+        shoulder_in_base = base_pose_in_world().inverse().multiply(np.asarray(SHOULDER, float))
+        self._rackets = []
+        for i in range(plant.num_model_instances()):
+            instance = ModelInstanceIndex(i)
+            if not plant.HasFrameNamed(RACKET_CENTER_FRAME, instance):
+                continue
+            frame = plant.GetFrameByName(RACKET_CENTER_FRAME, instance)
+            x_wb = plant.GetFrameByName(BASE_FRAME, instance).CalcPoseInWorld(default)
+            shoulder = tuple(float(c) for c in x_wb.multiply(shoulder_in_base))
+            self._rackets.append((frame.body(), frame.GetFixedPoseInBodyFrame().translation(),
+                                  shoulder, REACH_BOUND))
         self._succeeded = EventStatus.Succeeded
 
     def near_contact(self, plant_context) -> bool:
@@ -201,12 +222,11 @@ class ContactAccuracy:
             return True
         if pz < self._radius + 0.02 + fall:
             return True
-        if self._racket is not None:
-            body, offset, shoulder, arm_reach = self._racket
-            reach = 0.12 + (abs(vx) + abs(vy) + abs(vz) + 10.0) * h
+        reach = 0.12 + (abs(vx) + abs(vy) + abs(vz) + 10.0) * h
+        for body, offset, shoulder, arm_reach in self._rackets:
             dx, dy, dz = shoulder[0] - px, shoulder[1] - py, shoulder[2] - pz
             if math.sqrt(dx * dx + dy * dy + dz * dz) > arm_reach + reach:
-                return False
+                continue
             c = self._plant.EvalBodyPoseInWorld(plant_context, body).multiply(offset)
             dx, dy, dz = c[0] - px, c[1] - py, c[2] - pz
             if dx * dx + dy * dy + dz * dz < reach * reach:

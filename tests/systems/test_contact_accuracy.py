@@ -64,3 +64,29 @@ def test_the_30_cm_bounce_is_the_recipes_to_the_micrometre():
     scheduled = rebound(WorldConfig(with_robot=False, flight_accuracy=1e-3))
     assert recipe - TABLE.surface_z - BALL.radius == pytest.approx(0.23, abs=0.01)
     assert scheduled == pytest.approx(recipe, abs=1e-6)
+
+
+def test_near_contact_sees_every_robots_racket():
+    """The rally's world has two rackets: a ball at either blade centre is near a contact, a
+    ball high over the net is not (each racket's reach bound is taken about its own shoulder)."""
+    from pydrake.systems.framework import DiagramBuilder
+
+    from tt_drake.systems.world import add_world, make_simulator
+    from tt_drake.wam_params import RACKET_CENTER_FRAME
+
+    config = WorldConfig(flight_accuracy=1e-3, with_second_robot=True)
+    builder = DiagramBuilder()
+    world = add_world(builder, config)
+    diagram = builder.Build()
+    simulator = make_simulator(diagram, config)
+    monitor = ContactAccuracy(simulator, diagram, 1e-4, 1e-3)
+    plant = world.plant
+    context = plant.GetMyMutableContextFromRoot(simulator.get_mutable_context())
+    centres = [plant.GetFrameByName(RACKET_CENTER_FRAME, robot).CalcPoseInWorld(context)
+               .translation() for robot in (world.robot, world.robot_b)]
+    assert centres[0][1] < 0.0 < centres[1][1]  # one racket at each end of the table
+    for centre in centres:
+        set_ball_state(world, context, np.r_[centre + [0.0, 0.0, 0.05], 0.0, 0.0, 0.0, 0, 0, 0])
+        assert monitor.near_contact(context)
+    set_ball_state(world, context, np.r_[0.0, 0.0, TABLE.surface_z + 1.0, 0, 0, 0, 0, 0, 0])
+    assert not monitor.near_contact(context)

@@ -1,0 +1,497 @@
+"""``tt-drake rally``: two robots keep one ball in play (docs/rally.md).
+
+The rally diagram is the serve diagram's world with a second WAM at the other end of the table,
+mirrored through the net (``WorldConfig.with_second_robot``, :mod:`tt_drake.rally_rules`), each
+robot with its own controller and its own player: camera, estimator and player (any of
+:data:`tt_drake.diagrams.episodes.PLAYERS`), built by the same player functions as ``serve``'s,
+each inside its own sub-diagram (``player_A``, ``player_B``) whose input ``ball_state`` is the
+ball seen from that robot's frame (B's through a C++ ``MatrixGain``, the mirror M = Rz(pi)) and
+whose outputs ``desired_state``, ``desired_acceleration`` drive that robot's controller. So both
+players run unchanged in their own frame; they play again after each stroke (``play_again``).
+The :class:`tt_drake.systems.rally_referee.RallyReferee` alternates sides, counts exchanges and
+ends the rally (and the simulation) at the first fault or at ``Scenario.rally.max_exchanges``.
+
+A rally starts from a launcher ball to robot A: a serve of the scenario's distribution
+(``--start serve``) or a real rally ball (``--start rally``: the ``rally`` distribution,
+``rallies.json``). Rally i of a run uses ``episode_seed(seed, i)``: the launcher's draw, and each
+camera's noise (``episode_seed`` of it and the side's index), so a rally replays exactly.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tt_drake.diagrams.episodes import PLAYERS, PlayerError, check_run, episode_seed
+from tt_drake.diagrams.scenario import Scenario, validate
+from tt_drake.rally_rules import SIDES, Exchange, RallyFault, mirror_matrix13
+
+STARTS = ("serve", "rally")
+
+
+@dataclass
+class RallyResult:
+    """One rally: its seed, the launcher's ball, the exchanges, the fault that ended it (None if
+    capped), the simulated and wall durations; the logged poses when recorded."""
+
+    seed: int
+    launch_state: list[float]
+    exchanges: list[Exchange]
+    fault: RallyFault | None
+    capped: bool
+    duration: float
+    wall_time: float
+    poses: tuple | None = field(default=None, repr=False)
+
+    @property
+    def length(self) -> int:
+        return len(self.exchanges)
+
+    def as_dict(self) -> dict:
+        return {"seed": self.seed, "launch_state": [round(float(c), 5) for c in self.launch_state],
+                "exchanges": len(self.exchanges), "capped": self.capped,
+                "fault": None if self.fault is None else self.fault.as_dict(),
+                "duration": round(self.duration, 4), "wall_time": round(self.wall_time, 4),
+                "strokes": [e.as_dict() for e in self.exchanges]}
+
+
+class _PortWorld:
+    """What a player function reads from ``World``: the ball's state port (the side's view)."""
+
+    class _Plant:
+        def __init__(self, port):
+            self._port = port
+
+        def get_state_output_port(self, _instance):  # noqa: D102 (MultibodyPlant's name)
+            return self._port
+
+    def __init__(self, ball_port):
+        self.plant, self.ball = self._Plant(ball_port), None
+
+
+class _PortController:
+    """What a player function reads from the controller: its two desired-value input ports."""
+
+    def __init__(self, state_port, acceleration_port):
+        self._state, self._acceleration = state_port, acceleration_port
+
+    def get_input_port_desired_state(self):  # noqa: D102
+        return self._state
+
+    def get_input_port_desired_acceleration(self):  # noqa: D102
+        return self._acceleration
+
+
+def build_player_side(player: str, scenario: Scenario, side: int):
+    """The sub-diagram of one side's player: input ``ball_state`` (13, the side's frame), outputs
+    ``desired_state`` (14) and ``desired_acceleration`` (7). Returns (diagram, the systems that
+    draw random numbers, the player system)."""
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import PassThrough
+
+    if player not in PLAYERS:
+        raise PlayerError(f"unknown player {player!r}; choose one of {', '.join(PLAYERS)}")
+    sub = DiagramBuilder()
+    ball = sub.AddNamedSystem("ball_state", PassThrough(13))
+    sub.ExportInput(ball.get_input_port(), "ball_state")
+    desired = sub.AddNamedSystem("desired_state", PassThrough(14))
+    accel = sub.AddNamedSystem("desired_acceleration", PassThrough(7))
+    seeded = PLAYERS[player](sub, _PortWorld(ball.get_output_port()),
+                             _PortController(desired.get_input_port(), accel.get_input_port()),
+                             scenario)
+    sub.ExportOutput(desired.get_output_port(), "desired_state")
+    sub.ExportOutput(accel.get_output_port(), "desired_acceleration")
+    system = None
+    for name in ("analytical_player", "momp_player", "hitting_point_predictor"):
+        if sub.HasSubsystemNamed(name):
+            found = sub.GetSubsystemByName(name)
+            found.play_again = True  # read at their updates
+            if name != "hitting_point_predictor":
+                system = found
+    # The rally's aim replaces the single stroke's in every planner the player has (the
+    # analytical player's; the learned player's with ``configuration: analytical``).
+    for name in ("analytical_player", "hitting_configuration"):
+        planner = (getattr(sub.GetSubsystemByName(name), "planner", None)
+                   if sub.HasSubsystemNamed(name) else None)
+        if planner is not None:
+            planner.config = dataclasses.replace(
+                planner.config, target_x=scenario.rally.target_x,
+                target_y=scenario.rally.target_y,
+                flight_times=tuple(float(t) for t in scenario.rally.flight_times))
+    diagram = sub.Build()
+    diagram.set_name(f"player_{SIDES[side]}")
+    return diagram, seeded, system
+
+
+def rally_scenario(scenario: Scenario, start: str = "serve") -> Scenario:
+    """The scenario as the rally plays it: two robots, the launcher's ``rally`` distribution for
+    ``start`` = ``rally``, and camera noise drawn for the longest rally."""
+    scenario = copy.deepcopy(scenario)
+    if start not in STARTS:
+        raise PlayerError(f"unknown rally start {start!r}; choose one of {', '.join(STARTS)}")
+    scenario.world.with_second_robot = True
+    if start == "rally":
+        scenario.launcher.distribution = "rally"
+    # The camera's draws for a whole rally, the same number whatever the cap (the noise of
+    # frame k depends on how many are drawn): a rally replays the same under another cap.
+    frames = math.ceil(MAX_RALLY_DURATION / scenario.camera.period) + 2
+    scenario.camera.max_frames = max(scenario.camera.max_frames, frames)
+    return scenario
+
+
+#: The longest a rally is simulated (s), whatever its cap: 50 exchanges take about 55 s.
+MAX_RALLY_DURATION = 300.0
+
+
+def max_duration(scenario: Scenario) -> float:
+    """The longest a rally is simulated (s): every exchange (and the start) at its timeout, and
+    :data:`MAX_RALLY_DURATION` at most."""
+    return min((scenario.rally.max_exchanges + 1) * scenario.rally.exchange_timeout,
+               MAX_RALLY_DURATION)
+
+
+class RallyDiagram:
+    """The rally diagram of a (rally) scenario and two players, built once, run per rally."""
+
+    def __init__(self, scenario: Scenario, players: tuple[str, str] = ("analytical",
+                                                                      "analytical"),
+                 log: bool = False):
+        from pydrake.systems.framework import DiagramBuilder
+        from pydrake.systems.primitives import MatrixGain, VectorLogSink
+
+        from tt_drake.systems.aerodynamics import add_aerodynamics
+        from tt_drake.systems.ball_launcher import BallLauncher
+        from tt_drake.systems.rally_referee import RallyReferee
+        from tt_drake.systems.referee import RacketCentre
+        from tt_drake.systems.wam import RACKET_CENTER_FRAME, add_wam_controller
+        from tt_drake.systems.world import add_world, make_simulator
+
+        validate(scenario)
+        c = scenario.controller
+        if any(c.joint_coulomb) or any(c.joint_viscous) or any(c.torque_noise):
+            raise PlayerError("the rally does not model joint friction or torque noise; use a "
+                              "scenario without them")
+        if not scenario.world.with_second_robot or not scenario.world.with_robot:
+            raise PlayerError("a rally scenario has two robots (use rally_scenario)")
+        self.scenario, self.players = scenario, tuple(players)
+        builder = DiagramBuilder()
+        world = add_world(builder, scenario.world)
+        self.world = world
+        plant = world.plant
+        self.launcher = builder.AddNamedSystem("ball_launcher", BallLauncher(scenario.launcher))
+        add_aerodynamics(builder, world, scenario.aerodynamics)
+        robots = (world.robot, world.robot_b)
+        centres = tuple(RacketCentre(plant, r, plant.GetFrameByName(RACKET_CENTER_FRAME, r))
+                        for r in robots)
+        self.referee = builder.AddNamedSystem("rally_referee", RallyReferee(
+            scenario.rally, scenario.referee, scenario.referee_rate, centres))
+        ball = plant.get_state_output_port(world.ball)
+        builder.Connect(ball, self.referee.GetInputPort("ball_state"))
+        mirror = builder.AddNamedSystem("mirror_B", MatrixGain(mirror_matrix13()))
+        builder.Connect(ball, mirror.get_input_port())
+        self.seeded = [self.launcher]
+        self.sides, self.player_systems = [], []
+        for k, (name, robot) in enumerate(zip(self.players, robots, strict=True)):
+            builder.Connect(plant.get_state_output_port(robot),
+                            self.referee.GetInputPort(f"robot_{SIDES[k].lower()}_state"))
+            controller = add_wam_controller(builder, plant, robot, c.kp, c.ki, c.kd,
+                                            name=f"wam_controller_{SIDES[k]}",
+                                            mass_scale=c.mass_scale, inertia_scale=c.inertia_scale)
+            side, seeded, system = build_player_side(name, scenario, k)
+            builder.AddSystem(side)
+            builder.Connect(ball if k == 0 else mirror.get_output_port(),
+                            side.GetInputPort("ball_state"))
+            builder.Connect(side.GetOutputPort("desired_state"),
+                            controller.get_input_port_desired_state())
+            builder.Connect(side.GetOutputPort("desired_acceleration"),
+                            controller.get_input_port_desired_acceleration())
+            self.seeded += seeded
+            self.sides.append(side)
+            self.player_systems.append(system)
+        self.loggers = []
+        if log:  # at the referee's rate: no event time the unlogged diagram lacks
+            period = 1.0 / scenario.referee_rate
+            for name, port, size in (("ball", ball, 13),
+                                     ("arm_A", plant.get_state_output_port(robots[0]), 14),
+                                     ("arm_B", plant.get_state_output_port(robots[1]), 14)):
+                logger = builder.AddNamedSystem(f"{name}_logger", VectorLogSink(size, period))
+                builder.Connect(port, logger.get_input_port())
+                self.loggers.append(logger)
+        self.diagram = builder.Build()
+        self.diagram.set_name("rally_diagram")
+        self.simulator = make_simulator(self.diagram, scenario.world)
+        self.context = self.simulator.get_mutable_context()
+        self._set_awaiting_posture()
+        self._initial = self.context.Clone()
+
+    def _set_awaiting_posture(self) -> None:
+        from tt_drake.wam_params import AWAITING
+
+        plant = self.world.plant
+        plant_context = plant.GetMyMutableContextFromRoot(self.context)
+        for robot in (self.world.robot, self.world.robot_b):
+            plant.SetPositions(plant_context, robot, np.asarray(AWAITING))
+        for side in self.sides:
+            for name in ("servo_hold_desired_state", "servo_hold_desired_acceleration"):
+                if side.HasSubsystemNamed(name):
+                    hold = side.GetSubsystemByName(name)
+                    hold_context = hold.GetMyMutableContextFromRoot(self.context)
+                    hold.SetVectorState(hold_context, hold.get_input_port().Eval(hold_context))
+
+    def run(self, seed: int, gamma=None) -> RallyResult:
+        """Simulate one rally from ``seed`` (``gamma``: accepted for the parallel runner's
+        interface; must be None)."""
+        from pydrake.systems.analysis import ApplySimulatorConfig
+
+        from tt_drake.systems.world import set_ball_state
+
+        if gamma is not None:
+            raise PlayerError("responsibilities gamma are not used by the rally")
+        wall = time.perf_counter()
+        self.context.SetTimeStateAndParametersFrom(self._initial)
+        ApplySimulatorConfig(self.scenario.world.simulator, self.simulator)
+        for k, system in enumerate(self.seeded):
+            system.set_seed(system.GetMyMutableContextFromRoot(self.context),
+                            seed if k == 0 else episode_seed(seed, k))
+        serve = self.launcher.serve(self.launcher.GetMyContextFromRoot(self.context))
+        set_ball_state(self.world, self.world.plant.GetMyMutableContextFromRoot(self.context),
+                       serve.launch_state)
+        for logger in self.loggers:
+            logger.FindMutableLog(self.context).Clear()
+        self.simulator.Initialize()
+        self.simulator.AdvanceTo(max_duration(self.scenario))  # the referee ends it earlier
+        record = self.referee.record(self.referee.GetMyContextFromRoot(self.context))
+        fault = record.fault
+        t = self.context.get_time()
+        if not record.over:  # cannot happen: every exchange times out first
+            fault = RallyFault(record.receiver, "no_landing", t)
+        poses = None
+        if self.loggers:
+            logs = [logger.FindLog(self.context) for logger in self.loggers]
+            n = min(log.num_samples() for log in logs)
+            poses = (logs[0].sample_times()[:n].copy(),
+                     *(log.data()[:, :n].T.copy() for log in logs))
+        return RallyResult(seed, list(serve.launch_state), list(record.exchanges), fault,
+                           record.capped, t, time.perf_counter() - wall, poses)
+
+
+def _percentiles(values) -> dict | None:
+    values = [v for v in values if v is not None and math.isfinite(v)]
+    if not values:
+        return None
+    p = np.percentile(values, [5, 25, 50, 75, 95])
+    return {"n": len(values), **{f"p{q}": round(float(x), 3)
+                                 for q, x in zip((5, 25, 50, 75, 95), p, strict=True)}}
+
+
+def summarize_rallies(results: list[RallyResult]) -> dict:
+    """Mean and median rally length (exchanges; a capped rally counts as the cap), how many
+    reached the cap, the faults by kind, and per player: its exchange success rate (legal
+    returns over the balls it had to return, the rally's first ball from the launcher
+    included) and the same over the balls the other robot sent, and the percentiles of the
+    incoming ball's speed (m/s) and spin |omega| (rad/s) at its strokes and faults."""
+    lengths = [r.length for r in results]
+    faults: dict[str, int] = {}
+    for r in results:
+        if r.fault is not None:
+            key = f"{SIDES[r.fault.player]}:{r.fault.kind}"
+            faults[key] = faults.get(key, 0) + 1
+    summary = {"rallies": len(results),
+               "mean_length": round(float(np.mean(lengths)), 3) if lengths else 0.0,
+               "median_length": float(np.median(lengths)) if lengths else 0.0,
+               "capped": sum(r.capped for r in results), "faults": dict(sorted(faults.items()))}
+    players = {}
+    for k, side in enumerate(SIDES):
+        returns = [e for r in results for e in r.exchanges if e.player == k]
+        fails = [r.fault for r in results if r.fault is not None and r.fault.player == k]
+        firsts = sum(1 for r in results for i, e in enumerate(r.exchanges)
+                     if e.player == k and i == 0)
+        first_fails = sum(1 for r in results if r.fault is not None and r.fault.player == k
+                          and not r.exchanges)
+        attempts = len(returns) + len(fails)
+        robot_attempts = attempts - firsts - first_fails
+        speeds = [e.incoming_speed for e in returns] + [f.incoming_speed for f in fails]
+        spins = ([float(np.linalg.norm(e.incoming_spin)) for e in returns]
+                 + [float(np.linalg.norm(f.incoming_spin)) for f in fails
+                    if f.incoming_spin is not None])
+        players[side] = {
+            "returns": len(returns), "balls": attempts,
+            "success_rate": len(returns) / attempts if attempts else None,
+            "robot_balls": robot_attempts,
+            "success_rate_on_robot_balls": (len(returns) - firsts) / robot_attempts
+            if robot_attempts else None,
+            "incoming_speed": _percentiles(speeds), "incoming_spin": _percentiles(spins)}
+    summary["players"] = players
+    return summary
+
+
+def run_rallies(scenario: Scenario, players: tuple[str, str], rallies: int, seed: int,
+                start: str = "serve", html: str | None = None, json_path: str | None = None,
+                progress: bool = True, workers: int = 1, max_exchanges: int | None = None) -> dict:
+    """Run ``rallies`` rallies; rally i uses ``episode_seed(seed, i)``. Returns the JSON dict.
+    With ``workers`` > 1 (and no ``html``) they run in that many processes
+    (:func:`tt_drake.diagrams.parallel.run_episodes`)."""
+    from tqdm import tqdm
+
+    from tt_drake.diagrams.serve import scenario_dict
+    from tt_drake.outputs import check_writable, write_json_atomic, write_text_atomic
+    from tt_drake.provenance import run_provenance
+
+    check_run(seed, rallies)
+    for path in (html, json_path):
+        if path:
+            check_writable(path)
+    scenario = copy.deepcopy(scenario)
+    if max_exchanges is not None:
+        scenario.rally.max_exchanges = max_exchanges
+    scenario.launcher.run_seed = seed
+    scenario = rally_scenario(scenario, start)
+    seeds = [episode_seed(seed, i) for i in range(rallies)]
+    label = f"rallies ({players[0]} vs {players[1]})"
+    bar = tqdm(total=rallies, desc=label, unit="rally", file=sys.stderr, disable=not progress)
+    results, recording = [], None
+    if html or workers <= 1:
+        diagram = RallyDiagram(scenario, players, log=bool(html))
+        if html:
+            recording = RallyRecording(scenario)
+        runs = (diagram.run(s) for s in seeds)
+    else:
+        from tt_drake.diagrams.parallel import run_episodes
+
+        runs = run_episodes(scenario, tuple(players), seeds, workers, make_diagram=RallyDiagram)
+    for i, result in enumerate(runs):
+        results.append(result)
+        if recording is not None:
+            recording.add(i, result)
+        bar.update()
+        bar.set_postfix(median=float(np.median([r.length for r in results])))
+    bar.close()
+    data = {**run_provenance(), "scenario": scenario_dict(scenario), "players": list(players),
+            "seed": seed, "start": start, "distribution": scenario.launcher.distribution,
+            "summary": summarize_rallies(results), "rallies": [r.as_dict() for r in results]}
+    if recording is not None:
+        write_text_atomic(html, recording.html(data))
+    if json_path:
+        write_json_atomic(json_path, data)
+    return data
+
+
+def format_rally_summary(data: dict) -> str:
+    s = data["summary"]
+    a, b = data["players"]
+    n = s["rallies"]
+    line = (f"{a} (A) vs {b} (B), {n} rall{'y' if n == 1 else 'ies'} from a {data['start']} "
+            f"ball (seed {data['seed']}): mean {s['mean_length']:.1f} exchanges, median "
+            f"{s['median_length']:g}, {s['capped']} reached the cap")
+    for side, p in s["players"].items():
+        rate = "n/a" if p["success_rate"] is None else f"{p['success_rate']:.1%}"
+        line += f"; {side} returned {p['returns']}/{p['balls']} ({rate})"
+    return line
+
+
+class RallyRecording:
+    """One Meshcat animation of whole rallies laid end to end (both arms and the ball, the ball's
+    path and each landing), built as :class:`tt_drake.diagrams.recording.Recording` builds the
+    serves'; saved with ``StaticHtml``."""
+
+    def __init__(self, scenario: Scenario):
+        from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams, Rgba, Sphere
+        from pydrake.systems.framework import DiagramBuilder
+
+        from tt_drake.diagrams.recording import BALL_COLOUR, BALL_MARKER_RADIUS, make_meshcat
+        from tt_drake.systems.world import add_world
+
+        self.meshcat = make_meshcat()
+        self.meshcat.SetCameraPose([3.2, -0.6, 2.6], [0.0, 0.0, 0.76])
+        builder = DiagramBuilder()
+        self.world = add_world(builder, scenario.world)
+        self.visualizer = MeshcatVisualizer.AddToBuilder(
+            builder, self.world.scene_graph, self.meshcat, MeshcatVisualizerParams())
+        self.diagram = builder.Build()
+        self.context = self.diagram.CreateDefaultContext()
+        self.plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
+        self.visualizer_context = self.visualizer.GetMyContextFromRoot(self.context)
+        self.animation = self.visualizer.StartRecording(set_transforms_while_recording=False)
+        self.animation.set_repetitions(1_000_000)
+        self.animation.set_autoplay(True)
+        self.meshcat.SetObject("/ball_marker", Sphere(BALL_MARKER_RADIUS), Rgba(*BALL_COLOUR))
+        self.offset, self.segments = 0.0, []
+
+    def _publish(self, t: float, ball, arm_a, arm_b) -> None:
+        from pydrake.math import RigidTransform
+
+        self.animation.SetTransform(self.animation.frame(t), "/ball_marker",
+                                    RigidTransform(ball[4:7]))
+        plant = self.world.plant
+        plant.SetPositions(self.plant_context, self.world.ball, ball[:7])
+        plant.SetPositions(self.plant_context, self.world.robot, arm_a[:7])
+        plant.SetPositions(self.plant_context, self.world.robot_b, arm_b[:7])
+        self.context.SetTime(t)
+        self.visualizer.ForcedPublish(self.visualizer_context)
+
+    def add(self, index: int, result: RallyResult) -> None:
+        """Rally ``index`` from the current offset: one keyframe per animation frame, its ball
+        path (orange line) and landings (green: a legal return's, red: where the fault ended it)
+        shown only during its segment."""
+        from pydrake.geometry import Rgba, Sphere
+        from pydrake.math import RigidTransform
+
+        from tt_drake.diagrams.recording import (
+            FAULT_COLOUR,
+            HOLD,
+            PATH_COLOUR,
+            RETURN_COLOUR,
+            TABLE_Z,
+        )
+        from tt_drake.rally_rules import to_side
+
+        times, ball, arm_a, arm_b = result.poses
+        fps = self.animation.frames_per_second()
+        start = self.offset
+        first, last = self.animation.frame(start), self.animation.frame(start + times[-1])
+        for f in range(first, last + 1):
+            k = min(int(np.searchsorted(times, f / fps - start)), len(times) - 1)
+            self._publish(f / fps, ball[k], arm_a[k], arm_b[k])
+        stop = last + round(HOLD * fps)
+        self._publish((stop - 1) / fps, ball[-1], arm_a[-1], arm_b[-1])
+        path = f"/rallies/{index:04d}"
+        line = ball[:, 4:7].T
+        self.meshcat.SetLine(f"{path}/ball_path", line, 2.0, Rgba(*PATH_COLOUR))
+        for j, e in enumerate(result.exchanges):
+            x, y, _ = to_side(e.player, e.landing[0], e.landing[1], 0.0)
+            self.meshcat.SetObject(f"{path}/landing_{j:03d}", Sphere(0.03), Rgba(*RETURN_COLOUR))
+            self.meshcat.SetTransform(f"{path}/landing_{j:03d}", RigidTransform([x, y, TABLE_Z]))
+        end = ball[-1, 4:7]
+        self.meshcat.SetObject(f"{path}/end", Sphere(0.04), Rgba(*FAULT_COLOUR))
+        self.meshcat.SetTransform(f"{path}/end", RigidTransform(end))
+        if first > 0:
+            self.animation.SetProperty(0, path, "visible", False)
+        self.animation.SetProperty(first, path, "visible", True)
+        self.animation.SetProperty(stop, path, "visible", False)
+        self.segments.append((start, stop / fps))
+        self.offset = stop / fps
+
+    def html(self, data: dict) -> str:
+        import html as html_lib
+
+        self.visualizer.StopRecording()
+        self.visualizer.PublishRecording()
+        page = self.meshcat.StaticHtml()
+        rows = "".join(
+            f"<li>rally {i}: {r['exchanges']} exchanges"
+            + (f", {r['fault']['player']} {html_lib.escape(r['fault']['kind'])}"
+               if r["fault"] else ", capped") + "</li>"
+            for i, r in enumerate(data["rallies"]))
+        legend = ("<div style='position:fixed;top:8px;left:8px;background:#fffe;padding:6px;"
+                  "font:13px sans-serif;max-height:90%;overflow:auto'>"
+                  f"<b>{html_lib.escape(format_rally_summary(data))}</b><br>orange: the ball's "
+                  "path; green: legal landings; red: where the rally ended<ol start=0>"
+                  f"{rows}</ol></div>")
+        cut = page.rfind("</body>")
+        return page[:cut] + legend + page[cut:]

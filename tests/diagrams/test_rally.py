@@ -1,0 +1,174 @@
+"""The rally diagram: the mirrored robot, rallies of simple players, replay, summary and CLI."""
+
+import json
+
+import numpy as np
+import pytest
+
+from tt_drake.rally_rules import (
+    SIDES,
+    Exchange,
+    RallyFault,
+    mirror_matrix13,
+    mirror_state13,
+    to_side,
+)
+
+
+def test_the_mirror_is_a_half_turn_about_the_vertical_axis():
+    from pydrake.common.eigen_geometry import Quaternion
+    from pydrake.math import RotationMatrix
+
+    rng = np.random.default_rng(3)
+    q = rng.normal(size=4)
+    q /= np.linalg.norm(q)
+    state = np.r_[q, rng.normal(size=9)]
+    mirrored = np.asarray(mirror_state13(state))
+    np.testing.assert_allclose(mirror_matrix13() @ state, mirrored, atol=1e-15)
+    rz = RotationMatrix.MakeZRotation(np.pi)
+    expected = (rz @ RotationMatrix(Quaternion(q))).matrix()
+    np.testing.assert_allclose(RotationMatrix(Quaternion(mirrored[:4])).matrix(), expected,
+                               atol=1e-12)
+    for k in (4, 7, 10):  # p, omega, v: rotated by Rz(pi)
+        np.testing.assert_allclose(mirrored[k:k + 3], rz.matrix() @ state[k:k + 3], atol=1e-15)
+    # Twice is the identity: the quaternion's sign flips (a full turn), the same orientation.
+    np.testing.assert_allclose(mirror_matrix13() @ mirror_matrix13(),
+                               np.diag([-1.0] * 4 + [1.0] * 9))
+    assert to_side(1, *to_side(1, 0.3, -1.2, 0.9)) == (0.3, -1.2, 0.9)
+
+
+def test_the_mirrored_robots_racket_pose_is_the_mirrored_forward_kinematics():
+    from pydrake.math import RigidTransform, RotationMatrix
+    from pydrake.systems.framework import DiagramBuilder
+
+    from tt_drake import wam_params
+    from tt_drake.systems.wam import racket_pose
+    from tt_drake.systems.world import WorldConfig, add_world
+
+    world = add_world(DiagramBuilder(), WorldConfig(with_second_robot=True))
+    plant = world.plant
+    assert plant.num_positions() == 7 + 7 + 7  # ball (quaternion, p) and two arms
+    context = plant.CreateDefaultContext()
+    rz = RigidTransform(RotationMatrix.MakeZRotation(np.pi))
+    rng = np.random.default_rng(5)
+    lower, upper = np.array(wam_params.JOINT_LOWER), np.array(wam_params.JOINT_UPPER)
+    for q in [np.array(wam_params.AWAITING)] + [rng.uniform(lower, upper) for _ in range(3)]:
+        plant.SetPositions(context, world.robot, q)
+        plant.SetPositions(context, world.robot_b, q)
+        a, b = racket_pose(plant, context, world.robot), racket_pose(plant, context, world.robot_b)
+        np.testing.assert_allclose((rz @ a).GetAsMatrix4(), b.GetAsMatrix4(), atol=1e-12)
+    # The default world has one robot, as before.
+    single = add_world(DiagramBuilder())
+    assert single.robot_b is None and single.plant.num_positions() == 14
+
+
+def test_a_rally_that_no_one_plays_ends_with_a_miss_by_a():
+    from tt_drake.diagrams.rally import RallyDiagram, rally_scenario
+    from tt_drake.diagrams.scenario import load_scenario
+
+    result = RallyDiagram(rally_scenario(load_scenario()), ("idle", "idle")).run(7)
+    assert result.exchanges == [] and not result.capped
+    assert (result.fault.player, result.fault.kind) == (0, "missed")
+
+
+@pytest.fixture(scope="module")
+def analytical_pair():
+    from tt_drake.diagrams.rally import RallyDiagram, rally_scenario
+    from tt_drake.diagrams.scenario import load_scenario
+
+    scenario = load_scenario()
+    scenario.rally.max_exchanges = 2
+    return RallyDiagram(rally_scenario(scenario), ("analytical", "analytical"))
+
+
+def test_two_analytical_players_exchange_and_the_rally_replays_from_its_seed(analytical_pair):
+    from tt_drake.diagrams.rally import RallyDiagram
+
+    first = analytical_pair.run(11)
+    # A returns the serve, B returns A's ball: the cap (2) ends the rally.
+    assert [e.player for e in first.exchanges] == [0, 1] and first.capped
+    for e in first.exchanges:  # each aimed at the rally target, in its own frame
+        assert e.landing == pytest.approx((-0.3, 0.9), abs=0.15)
+    other = analytical_pair.run(12)
+    again = analytical_pair.run(11)
+    fresh = RallyDiagram(analytical_pair.scenario, analytical_pair.players).run(11)
+    for replay in (again, fresh):
+        assert replay.as_dict() | {"wall_time": 0} == first.as_dict() | {"wall_time": 0}
+    assert other.launch_state != first.launch_state
+
+
+def test_summary_counts_lengths_caps_and_each_players_success():
+    from tt_drake.diagrams.rally import RallyResult, summarize_rallies
+
+    def ex(player, speed):
+        return Exchange(player, 1.0, (0.0, 0.9), speed, (30.0, 40.0, 0.0))
+
+    results = [
+        RallyResult(1, [0.0] * 9, [ex(0, 3.0), ex(1, 4.0), ex(0, 5.0)], None, True, 4.0, 1.0),
+        RallyResult(2, [0.0] * 9, [ex(0, 3.0)], RallyFault(1, "net", 2.0, 6.0, (0, 0, 0)),
+                    False, 2.0, 1.0),
+        RallyResult(3, [0.0] * 9, [], RallyFault(0, "missed", 1.0, 7.0, (0, 0, 0)), False, 1.0,
+                    1.0),
+    ]
+    s = summarize_rallies(results)
+    assert s["mean_length"] == pytest.approx(4 / 3, abs=1e-3)
+    assert (s["median_length"], s["capped"]) == (1.0, 1)
+    assert s["faults"] == {"A:missed": 1, "B:net": 1}
+    a, b = s["players"]["A"], s["players"]["B"]
+    # A: 3 returns of 4 balls, 3 of them from the launcher (2 returned, 1 missed)
+    assert (a["returns"], a["balls"], a["success_rate"]) == (3, 4, 0.75)
+    assert (a["robot_balls"], a["success_rate_on_robot_balls"]) == (1, 1.0)
+    assert (b["returns"], b["balls"], b["robot_balls"]) == (1, 2, 2)
+    assert b["incoming_speed"]["p50"] == 5.0 and b["incoming_spin"]["p50"] == 25.0
+    assert a["incoming_spin"]["n"] == 4 and a["incoming_spin"]["p95"] == 50.0
+    assert set(SIDES) == set(s["players"])
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--players", "analytical", "robot"], "unknown player 'robot'"),
+    (["--rallies", "0"], "must be > 0"),
+    (["--players", "momp", "analytical", "--library", "/nonexistent/library.npz", "--crkr",
+      "/nonexistent/crkr.npz"], "/nonexistent/"),
+    (["--max-exchanges", "0"], "must be > 0"),
+])
+def test_bad_rally_input_exits_2_with_one_line_and_no_file(tmp_path, capsys, args, message):
+    from tt_drake.diagrams.cli import main
+
+    out = tmp_path / "rally.json"
+    try:
+        code = main(["rally", "--quiet", "--json", str(out), *args])
+    except SystemExit as exit:  # argparse's errors
+        code = exit.code
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and message in err
+    assert not out.exists()
+
+
+def test_rally_cli_writes_the_summary_and_one_record_per_rally(tmp_path, capsys):
+    from tt_drake.diagrams.cli import main
+
+    out = tmp_path / "rally.json"
+    code = main(["rally", "--quiet", "--players", "analytical", "idle", "--rallies", "1",
+                 "--seed", "3", "--json", str(out)])
+    assert code == 0
+    data = json.loads(out.read_text())
+    (rally,) = data["rallies"]
+    # A returns the serve; B, which never swings, misses it.
+    assert rally["exchanges"] == 1 and rally["fault"]["player"] == "B"
+    assert rally["fault"]["kind"] in ("missed", "double_bounce")
+    assert data["summary"]["players"]["B"]["success_rate"] == 0.0
+    assert data["players"] == ["analytical", "idle"] and data["scenario"]["rally"]
+    assert "1 rally from a serve ball (seed 3)" in capsys.readouterr().out
+
+
+@pytest.mark.slow
+def test_rallies_on_two_workers_are_the_serial_rallies():
+    from tt_drake.diagrams.rally import run_rallies
+    from tt_drake.diagrams.scenario import load_scenario
+
+    def rallies(workers):
+        data = run_rallies(load_scenario(), ("analytical", "analytical"), 3, 5, progress=False,
+                           workers=workers, max_exchanges=2)
+        return [r | {"wall_time": 0} for r in data["rallies"]]
+
+    assert rallies(2) == rallies(1)
