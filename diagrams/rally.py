@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tt_drake.diagrams.episodes import PLAYERS, PlayerError, check_run, episode_seed
+from tt_drake.diagrams.recording import RecordingScene
 from tt_drake.diagrams.scenario import Scenario, validate
 from tt_drake.rally_rules import SIDES, Exchange, RallyFault, mirror_matrix13
 
@@ -395,31 +396,18 @@ def format_rally_summary(data: dict) -> str:
     return line
 
 
-class RallyRecording:
+class RallyRecording(RecordingScene):
     """One Meshcat animation of whole rallies laid end to end (both arms and the ball, the ball's
     path and each landing), built as :class:`tt_drake.diagrams.recording.Recording` builds the
     serves'; saved with ``StaticHtml``."""
 
     def __init__(self, scenario: Scenario):
-        from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams, Rgba, Sphere
-        from pydrake.systems.framework import DiagramBuilder
+        from pydrake.geometry import Rgba, Sphere
 
-        from tt_drake.diagrams.recording import BALL_COLOUR, BALL_MARKER_RADIUS, make_meshcat
-        from tt_drake.systems.world import add_world
+        from tt_drake.diagrams.recording import BALL_COLOUR, BALL_MARKER_RADIUS
 
-        self.meshcat = make_meshcat()
+        super().__init__(scenario.world)
         self.meshcat.SetCameraPose([3.2, -0.6, 2.6], [0.0, 0.0, 0.76])
-        builder = DiagramBuilder()
-        self.world = add_world(builder, scenario.world)
-        self.visualizer = MeshcatVisualizer.AddToBuilder(
-            builder, self.world.scene_graph, self.meshcat, MeshcatVisualizerParams())
-        self.diagram = builder.Build()
-        self.context = self.diagram.CreateDefaultContext()
-        self.plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
-        self.visualizer_context = self.visualizer.GetMyContextFromRoot(self.context)
-        self.animation = self.visualizer.StartRecording(set_transforms_while_recording=False)
-        self.animation.set_repetitions(1_000_000)
-        self.animation.set_autoplay(True)
         self.meshcat.SetObject("/ball_marker", Sphere(BALL_MARKER_RADIUS), Rgba(*BALL_COLOUR))
         self.offset, self.segments = 0.0, []
 

@@ -60,28 +60,21 @@ def make_meshcat():
     return meshcat
 
 
-def _episode_path(index: int) -> str:
-    return f"/episodes/{index:04d}"
+class RecordingScene:
+    """A world of its own (the scenario's) drawn by a ``MeshcatVisualizer`` that records: logged
+    poses set on its plant context become the animation's frames. The recording starts playing
+    when the page opens and loops until it is closed (the legend's script restarts it if a
+    browser paused it)."""
 
-
-class Recording:
-    """One Meshcat animation of several episodes laid end to end.
-
-    Builds its own plant (the scenario's world) with a ``MeshcatVisualizer``; :meth:`add` writes
-    one episode's logged poses into the animation at the current offset, with its drawings;
-    :meth:`html` makes the page."""
-
-    def __init__(self, scenario, library=None):
+    def __init__(self, world_config):
         from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
         from pydrake.systems.framework import DiagramBuilder
 
         from tt_drake.systems.world import add_world
 
-        self.scenario = scenario
-        self.library = library
         self.meshcat = make_meshcat()
         builder = DiagramBuilder()
-        self.world = add_world(builder, scenario.world)
+        self.world = add_world(builder, world_config)
         self.visualizer = MeshcatVisualizer.AddToBuilder(
             builder, self.world.scene_graph, self.meshcat, MeshcatVisualizerParams())
         self.diagram = builder.Build()
@@ -89,9 +82,25 @@ class Recording:
         self.plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
         self.visualizer_context = self.visualizer.GetMyContextFromRoot(self.context)
         self.animation = self.visualizer.StartRecording(set_transforms_while_recording=False)
-        # Loop until the page is closed; the legend's script restarts it if a browser paused it.
         self.animation.set_repetitions(1_000_000)
         self.animation.set_autoplay(True)
+
+
+def _episode_path(index: int) -> str:
+    return f"/episodes/{index:04d}"
+
+
+class Recording(RecordingScene):
+    """One Meshcat animation of several episodes laid end to end.
+
+    Builds its own plant (the scenario's world) with a ``MeshcatVisualizer``; :meth:`add` writes
+    one episode's logged poses into the animation at the current offset, with its drawings;
+    :meth:`html` makes the page."""
+
+    def __init__(self, scenario, library=None):
+        self.scenario = scenario
+        self.library = library
+        super().__init__(scenario.world)
         mark_target(self.meshcat, scenario.referee.target_x, scenario.referee.target_y,
                     scenario.referee.target_radius)
         from pydrake.geometry import Rgba, Sphere

@@ -40,6 +40,7 @@ from tt_drake.referee_rules import (
     RefereeConfig,
 )
 from tt_drake.systems.immutable import Immutable
+from tt_drake.systems.referee import RacketAt
 
 
 class RallyRecord(Immutable):
@@ -68,30 +69,19 @@ class _State(Immutable):
         self.started, self.incoming = started, incoming
 
 
-class _SideRacket:
+class _SideRacket(RacketAt):
     """The receiver's racket centre in its own frame, computed on first use (a 3-sequence)."""
 
-    __slots__ = ("_q", "_centre", "_side", "_point")
+    __slots__ = ("_side",)
 
     def __init__(self, q, centre, side: int):
-        self._q, self._centre, self._side, self._point = q, centre, side, None
+        super().__init__(q, centre)
+        self._side = side
 
     def _get(self):
         if self._point is None:
             self._point = to_side(self._side, *self._centre(self._q))
         return self._point
-
-    def __len__(self):
-        return 3
-
-    def __getitem__(self, i):
-        return self._get()[i]
-
-    def __iter__(self):
-        return iter(self._get())
-
-    def __deepcopy__(self, memo):
-        return self
 
 
 class RallyReferee(LeafSystem):

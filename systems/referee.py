@@ -68,7 +68,7 @@ class RacketCentre:
         return float(p[0]), float(p[1]), float(p[2])
 
 
-class _RacketAt:
+class RacketAt:
     """The racket centre at one sample, computed on first use from the joint positions stored
     with the sample (a 3-sequence for :class:`ContactDetector`). Never changed once computed."""
 
@@ -124,7 +124,7 @@ class Referee(LeafSystem):
         if self._racket_centre is None or not self.get_input_port(1).HasValue(context):
             return None
         x = self.get_input_port(1).Eval(context)
-        return _RacketAt(tuple(x[:self._racket_centre.num_positions].tolist()), self._racket_centre)
+        return RacketAt(tuple(x[:self._racket_centre.num_positions].tolist()), self._racket_centre)
 
     def _robot_touches_table(self, context) -> bool:
         if not self._table_geometries or not self.get_input_port(2).HasValue(context):
