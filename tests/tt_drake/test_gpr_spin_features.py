@@ -7,41 +7,25 @@ import json
 import numpy as np
 import pytest
 
+from tests.tt_drake._observed import observed_serve
 from tt_drake.ball_model import CompliantBounceBallModel
-from tt_drake.camera_model import CameraConfig, CameraModel
 from tt_drake.constants import PLANES
-from tt_drake.estimation import propagate_exact, run_filter
 from tt_drake.hitting_point import (
     FEATURE_SETS,
     HittingPointGPR,
     PredictorFileError,
     make_features,
     make_label,
-    observation_frames,
     regression_metrics,
 )
-from tt_drake.serves import ServeSampler
 
-RATE = 60.0
 MODEL = CompliantBounceBallModel(dt=2e-3)
 
 
 def spin_serve(seed):
     """The four observed states, the spin estimate at the fourth and the label of one ``spin``
     serve (+-100 rad/s per axis), the ball model (spin, Magnus, bounce) as the truth."""
-    serve = ServeSampler("spin").sample(seed)
-    hit = MODEL.predict_plane(serve.launch_state, PLANES.hitting_y)
-    n = int(hit.t * RATE) + 1
-    x = serve.launch_state.copy()
-    xs = [x]
-    for _ in range(n - 1):
-        x, _ = propagate_exact(MODEL, x, 1.0 / RATE)
-        xs.append(x)
-    xs = np.array(xs)
-    z = CameraModel(CameraConfig()).measure_sequence(seed, xs[:, :3])
-    times = np.arange(n) / RATE
-    run = run_filter(times, z)
-    idx = observation_frames(run.states, run.tracking)
+    run, idx, hit, times = observed_serve("spin", seed, MODEL)
     return (run.states[idx], run.spins[idx[-1]],
             make_label(hit.position, hit.velocity, hit.t, times[idx[-1]]))
 

@@ -4,11 +4,9 @@ save/load without pickle, corrupt and mismatched files."""
 import numpy as np
 import pytest
 
+from tests.tt_drake._observed import observed_serve
 from tt_drake.artefacts import save_artefact
 from tt_drake.ball_model import CompliantBounceBallModel
-from tt_drake.camera_model import CameraConfig, CameraModel
-from tt_drake.constants import PLANES
-from tt_drake.estimation import propagate_exact, run_filter
 from tt_drake.hitting_point import (
     EXACT_OUTPUT,
     HittingPointGPR,
@@ -16,13 +14,10 @@ from tt_drake.hitting_point import (
     PredictorFileError,
     make_features,
     make_label,
-    observation_frames,
     plane_crossing_from_samples,
     regression_metrics,
 )
-from tt_drake.serves import ServeSampler
 
-RATE = 60.0
 
 
 def test_plane_crossing_of_a_parabola():
@@ -40,19 +35,7 @@ MODEL = CompliantBounceBallModel(dt=2e-3)
 
 def sample(seed, model=MODEL):
     """Features and label of one serve with the ball model as the truth."""
-    serve = ServeSampler("default").sample(seed)
-    hit = model.predict_plane(serve.launch_state, PLANES.hitting_y)
-    n = int(hit.t * RATE) + 1
-    x = serve.launch_state[:6].copy()
-    xs = [x]
-    for _ in range(n - 1):
-        x, _ = propagate_exact(model, x, 1.0 / RATE)
-        xs.append(x)
-    xs = np.array(xs)
-    z = CameraModel(CameraConfig()).measure_sequence(seed, xs[:, :3])
-    times = np.arange(n) / RATE
-    run = run_filter(times, z)
-    idx = observation_frames(run.states, run.tracking)
+    run, idx, hit, times = observed_serve("default", seed, model, state_size=6)
     return (make_features(run.states[idx]),
             make_label(hit.position, hit.velocity, hit.t, times[idx[-1]]), run.states[idx[-1]])
 
