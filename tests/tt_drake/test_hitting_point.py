@@ -19,7 +19,6 @@ from tt_drake.hitting_point import (
 )
 
 
-
 def test_plane_crossing_of_a_parabola():
     t = np.linspace(0.0, 1.0, 101)
     p = np.stack([0.1 * t, 1.0 - 3.0 * t, 1.0 - 4.9 * t**2], axis=1)
