@@ -231,6 +231,27 @@ class BallModel:
              vz + h6 * (az1 + 2 * az2 + 2 * az3 + az4)),
         )
 
+    def rk4_stages(self, pos: tuple, vel: tuple, w: tuple, h: float
+                   ) -> tuple[tuple, tuple, tuple]:
+        """:meth:`flight_step` (the same numbers) with its stage velocities (v1, v2, v3, v4), which
+        the variational steps evaluate their Jacobians at. Returns (stages, new_p, new_v)."""
+        hh = 0.5 * h
+        a1 = self.acceleration(vel, w)
+        v2 = (vel[0] + hh * a1[0], vel[1] + hh * a1[1], vel[2] + hh * a1[2])
+        a2 = self.acceleration(v2, w)
+        v3 = (vel[0] + hh * a2[0], vel[1] + hh * a2[1], vel[2] + hh * a2[2])
+        a3 = self.acceleration(v3, w)
+        v4 = (vel[0] + h * a3[0], vel[1] + h * a3[1], vel[2] + h * a3[2])
+        a4 = self.acceleration(v4, w)
+        h6 = h / 6.0
+        new_p = (pos[0] + h6 * (vel[0] + 2 * v2[0] + 2 * v3[0] + v4[0]),
+                 pos[1] + h6 * (vel[1] + 2 * v2[1] + 2 * v3[1] + v4[1]),
+                 pos[2] + h6 * (vel[2] + 2 * v2[2] + 2 * v3[2] + v4[2]))
+        new_v = (vel[0] + h6 * (a1[0] + 2 * a2[0] + 2 * a3[0] + a4[0]),
+                 vel[1] + h6 * (a1[1] + 2 * a2[1] + 2 * a3[1] + a4[1]),
+                 vel[2] + h6 * (a1[2] + 2 * a2[2] + 2 * a3[2] + a4[2]))
+        return (vel, v2, v3, v4), new_p, new_v
+
     def flight_step_variational(self, pos: tuple, vel: tuple, w: tuple, h: float,
                                 dp: tuple, dv: tuple) -> tuple[tuple, tuple, tuple, tuple]:
         """:meth:`flight_step` together with the sensitivities of its result.
@@ -249,21 +270,8 @@ class BallModel:
         differentiation). Returns (new_p, new_v, new_dp, new_dv); new_p, new_v equal
         :meth:`flight_step`'s to the last bit. Omega is held fixed (no sensitivity to it).
         """
-        hh = 0.5 * h
-        a1 = self.acceleration(vel, w)
-        v2 = (vel[0] + hh * a1[0], vel[1] + hh * a1[1], vel[2] + hh * a1[2])
-        a2 = self.acceleration(v2, w)
-        v3 = (vel[0] + hh * a2[0], vel[1] + hh * a2[1], vel[2] + hh * a2[2])
-        a3 = self.acceleration(v3, w)
-        v4 = (vel[0] + h * a3[0], vel[1] + h * a3[1], vel[2] + h * a3[2])
-        a4 = self.acceleration(v4, w)
-        h6 = h / 6.0
-        new_p = (pos[0] + h6 * (vel[0] + 2 * v2[0] + 2 * v3[0] + v4[0]),
-                 pos[1] + h6 * (vel[1] + 2 * v2[1] + 2 * v3[1] + v4[1]),
-                 pos[2] + h6 * (vel[2] + 2 * v2[2] + 2 * v3[2] + v4[2]))
-        new_v = (vel[0] + h6 * (a1[0] + 2 * a2[0] + 2 * a3[0] + a4[0]),
-                 vel[1] + h6 * (a1[1] + 2 * a2[1] + 2 * a3[1] + a4[1]),
-                 vel[2] + h6 * (a1[2] + 2 * a2[2] + 2 * a3[2] + a4[2]))
+        hh, h6 = 0.5 * h, h / 6.0
+        (_, v2, v3, v4), new_p, new_v = self.rk4_stages(pos, vel, w, h)
         d1 = _mat3_mul(self.acceleration_jacobian(vel, w), dv)
         x2 = _mat3_axpy(dv, hh, d1)
         d2 = _mat3_mul(self.acceleration_jacobian(v2, w), x2)

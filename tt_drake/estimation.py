@@ -239,22 +239,9 @@ def flight_step_spin_variational(model: BallModel, pos: tuple, vel: tuple, w: tu
 
     the exact derivative of the RK4 step. Returns (p, v, dp, dv)."""
     c = model.params.magnus_cl
-    hh = 0.5 * h
-    acc, jac = model.acceleration, model.acceleration_jacobian
-    a1 = acc(vel, w)
-    v2 = (vel[0] + hh * a1[0], vel[1] + hh * a1[1], vel[2] + hh * a1[2])
-    a2 = acc(v2, w)
-    v3 = (vel[0] + hh * a2[0], vel[1] + hh * a2[1], vel[2] + hh * a2[2])
-    a3 = acc(v3, w)
-    v4 = (vel[0] + h * a3[0], vel[1] + h * a3[1], vel[2] + h * a3[2])
-    a4 = acc(v4, w)
-    h6 = h / 6.0
-    new_p = (pos[0] + h6 * (vel[0] + 2 * v2[0] + 2 * v3[0] + v4[0]),
-             pos[1] + h6 * (vel[1] + 2 * v2[1] + 2 * v3[1] + v4[1]),
-             pos[2] + h6 * (vel[2] + 2 * v2[2] + 2 * v3[2] + v4[2]))
-    new_v = (vel[0] + h6 * (a1[0] + 2 * a2[0] + 2 * a3[0] + a4[0]),
-             vel[1] + h6 * (a1[1] + 2 * a2[1] + 2 * a3[1] + a4[1]),
-             vel[2] + h6 * (a1[2] + 2 * a2[2] + 2 * a3[2] + a4[2]))
+    hh, h6 = 0.5 * h, h / 6.0
+    jac = model.acceleration_jacobian
+    (_, v2, v3, v4), new_p, new_v = model.rk4_stages(pos, vel, w, h)
     d1 = _jac_times(jac(vel, w), dv, _spin_forcing(c, vel))
     x2 = _axpy18(dv, hh, d1)
     d2 = _jac_times(jac(v2, w), x2, _spin_forcing(c, v2))
