@@ -46,7 +46,7 @@ import json
 import shutil
 import sys
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -120,6 +120,15 @@ def quick_config() -> ReproduceConfig:
         predictor_restarts=0)
 
 
+def artefacts_config() -> ReproduceConfig:
+    """The sizes that trained the shipped hard artefacts (``models/learned-hard/``, with
+    ``--protocol hard --sizes artefacts --until crkr``): the training stages only, sized to run
+    in well under an hour on one core; CrKR is its first policy iteration (the teacher's pairs)."""
+    return replace(ReproduceConfig(), teacher_serves=600, predictor_train_serves=450,
+                   predictor_test_serves=150, predictor_restarts=0, primitives=200,
+                   crkr_serves=60, crkr_max_iterations=1)
+
+
 @dataclass(frozen=True)
 class Protocol:
     """Which serves a run learns from and is judged on.
@@ -141,6 +150,9 @@ class Protocol:
     # The GPR's feature set (``tt_drake.hitting_point``), trained on the ``train`` mix when not
     # the paper's ``states`` (the paper's predictor learns from default serves only).
     predictor_features: str = "states"
+    # The momp player's hitting DMP follows each new prediction until the cut-off (the moving
+    # goal, ``LearnedPlayerConfig.moving_goal``); the paper profile commits at the swing start.
+    moving_goal: bool = False
 
     def library_settings(self, config):
         """The settings the library and CrKR stages read: the protocol's, else ``config``'s."""
@@ -159,7 +171,8 @@ PROTOCOLS = {
     # impact), gates and configures on the spin too; its GPR reads the estimated spin.
     "hard": Protocol("hard", ("spin", "real-train", "rally-train"),
                      (("spin", "spin"), ("real-test", "real-test")), ceiling=True,
-                     library=tuple(HARD_PROFILE.items()), predictor_features="states+spin"),
+                     library=tuple(HARD_PROFILE.items()), predictor_features="states+spin",
+                     moving_goal=True),
 }
 
 
@@ -226,6 +239,7 @@ class Run:
         learned = scenario.learned
         learned.library, learned.crkr, learned.predictor = library, crkr, predictor
         learned.configuration = configuration
+        learned.moving_goal = self.protocol.moving_goal
         if distribution is not None:
             scenario.launcher.distribution = distribution
         return scenario
