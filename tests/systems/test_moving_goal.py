@@ -7,7 +7,7 @@ from tt_drake.learned_player import move_hitting_goal
 from tt_drake.stages import HITTING
 from tt_drake.systems.momp_player import MoMPConfig, MoMPTrajectorySource
 
-from .test_momp_player import QD_HIT, Q_HIT, T_HIT, fix_inputs, synthetic_library
+from .test_momp_player import Q_HIT, QD_HIT, T_HIT, fix_inputs, synthetic_library
 
 
 def _stroke_under_way(config=None):
