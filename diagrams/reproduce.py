@@ -796,17 +796,20 @@ def stage_final(run: Run) -> dict:
     return out
 
 
-def _export_artefacts(run: Run, library: str) -> dict:
+def _export_artefacts(run: Run, library: str, until: str | None = None) -> dict:
     """The final player's three artefacts in ``DIR/artefacts/`` (what ``make demo`` ships in
-    models/learned/), with where they came from."""
+    models/learned/), with where they came from; ``until``: the run stopped after that stage."""
     folder = run.folder("artefacts")
     sources = {"library.npz": library, "crkr.npz": run.result("crkr")["best"],
                "predictor.npz": run.result("predictor")["model"]}
     for name, source in sources.items():
         shutil.copyfile(run.path(source), folder / f".{name}.tmp")
         (folder / f".{name}.tmp").replace(folder / name)
+    sizes = next((name for name, make in SIZES.items() if make() == run.config), None)
     command = "tt-drake reproduce" + (" --quick" if run.quick else "") + (
-        f" --protocol {run.protocol.name}" if run.protocol.name != "paper" else "")
+        f" --protocol {run.protocol.name}" if run.protocol.name != "paper" else "") + (
+        f" --sizes {sizes}" if sizes not in (None, "full", "quick") else "") + (
+        f" --until {until}" if until else "")
     provenance = {"command": command, "protocol": run.protocol.name,
                   "config": run.config.to_dict(), **run_provenance(),
                   "sources": {name: run.rel(run.path(source)) for name, source in sources.items()}}
@@ -820,11 +823,17 @@ STAGE_FUNCTIONS = {"teacher": stage_teacher, "predictor": stage_predictor,
                    "power": stage_power, "final": stage_final}
 
 
+#: Named stage sizes (``--sizes``): the full run, the CI-sized one, the hard artefacts' training.
+SIZES = {"full": ReproduceConfig, "quick": quick_config, "artefacts": artefacts_config}
+
+
 def reproduce(out, quick: bool = False, workers: int | None = None, executor: str = "local",
               progress: bool = True, config: ReproduceConfig | None = None,
-              protocol: str = "paper") -> dict:
+              protocol: str = "paper", until: str | None = None) -> dict:
     """Run the missing stages, then write the report; returns the report dict. ``protocol``:
-    a name in :data:`PROTOCOLS`."""
+    a name in :data:`PROTOCOLS`. ``until``: stop after this stage; a run stopped after the
+    ``crkr`` stage (or later, before ``final``) exports the library, CrKR and predictor trained
+    so far to ``DIR/artefacts/`` (the primitives with gamma = 1 if no learning stage ran)."""
     from tt_drake.diagrams.inputs import check_inputs
     from tt_drake.diagrams.parallel import EXECUTORS, default_workers, executor_session
     from tt_drake.diagrams.report import write_report
@@ -836,6 +845,8 @@ def reproduce(out, quick: bool = False, workers: int | None = None, executor: st
     if protocol not in PROTOCOLS:
         raise ReproduceError(f"unknown protocol {protocol!r}; choose one of "
                              f"{', '.join(PROTOCOLS)}")
+    if until is not None and until not in STAGES:
+        raise ReproduceError(f"unknown stage {until!r}; choose one of {', '.join(STAGES)}")
     config = config or (quick_config() if quick else ReproduceConfig())
     # Every file a stage will read, checked before the first stage: the final stage serves real
     # ball states (serves.json) after hours of the others.
@@ -852,8 +863,15 @@ def reproduce(out, quick: bool = False, workers: int | None = None, executor: st
             started = time.perf_counter()
             result = run.finish(stage, STAGE_FUNCTIONS[stage](run), started)
             run.say(f"[{k}/{len(STAGES)}] {stage}: {result['wall_seconds']:.0f} s")
+            if stage == until:
+                break
+        if until is not None and STAGES.index(until) >= STAGES.index("crkr") \
+                and until != "final":
+            learned = run.result("power") or run.result("responsibility") or run.result(
+                "library")
+            _export_artefacts(run, learned["library"], until)
     return write_report(run)
 
 
-__all__ = ["reproduce", "ReproduceConfig", "quick_config", "ReproduceError", "STAGES", "rates",
-           "PROTOCOLS", "Protocol", "ceiling_rates"]
+__all__ = ["reproduce", "ReproduceConfig", "quick_config", "artefacts_config", "SIZES",
+           "ReproduceError", "STAGES", "rates", "PROTOCOLS", "Protocol", "ceiling_rates"]
