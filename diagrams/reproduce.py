@@ -122,11 +122,12 @@ def quick_config() -> ReproduceConfig:
 
 def artefacts_config() -> ReproduceConfig:
     """The sizes that trained the shipped hard artefacts (``models/learned-hard/``, with
-    ``--protocol hard --sizes artefacts --until crkr``): the training stages only, sized to run
-    in well under an hour on one core; CrKR is its first policy iteration (the teacher's pairs)."""
-    return replace(ReproduceConfig(), teacher_serves=600, predictor_train_serves=450,
-                   predictor_test_serves=150, predictor_restarts=0, primitives=200,
-                   crkr_serves=60, crkr_max_iterations=1)
+    ``--protocol hard --sizes artefacts --until crkr``): the training stages only, sized for a
+    session on a shared 2-core machine (50 teacher serves of each training distribution); CrKR
+    is its first policy iteration (the teacher's pairs)."""
+    return replace(ReproduceConfig(), teacher_serves=150, predictor_train_serves=300,
+                   predictor_test_serves=90, predictor_restarts=0, primitives=200,
+                   crkr_serves=30, crkr_max_iterations=1)
 
 
 @dataclass(frozen=True)
@@ -415,7 +416,7 @@ def _merge_datasets(folders: list[Path], out: Path) -> float:
         for key, value in data.items():
             if key == "manifest":
                 continue
-            if key in ("index", "trajectory_serve"):
+            if key == "index" or key.endswith("_serve"):  # trajectory_serve, recorded_serve
                 value = value + offset
             arrays.setdefault(key, []).append(value)
         offset += n
