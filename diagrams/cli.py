@@ -164,11 +164,11 @@ def _add_learned_options(p: argparse.ArgumentParser, artefact_sets: bool = True)
     p.add_argument("--predictor", default="",
                    help="learned players: GPR predictor (tt-drake train-predictor); not given "
                         "with --library or --crkr: the physical model")
-    p.add_argument("--configuration", default="crkr",
+    p.add_argument("--configuration", default=None,
                    type=_one_of("hitting configuration", CONFIGURATION_NAMES),
                    choices=CONFIGURATION_NAMES,
                    help="learned players: hitting configuration from the CrKR model or the "
-                        "analytical IK")
+                        "analytical IK (default: crkr; with --artefacts, the set's)")
     if not artefact_sets:
         return
     p.add_argument("--artefacts", default=None, type=_one_of("artefact set", ARTEFACT_SET_NAMES),
@@ -344,8 +344,9 @@ def _scenario(args):
         learned.library = args.library or learned.library
         learned.crkr = args.crkr or learned.crkr
         learned.predictor = args.predictor or learned.predictor
-        learned.configuration = args.configuration
-        _use_shipped_artefacts(args.player, scenario, getattr(args, "artefacts", None))
+        learned.configuration = args.configuration or "crkr"
+        _use_shipped_artefacts(args.player, scenario, getattr(args, "artefacts", None),
+                               args.configuration is not None)
     if args.distribution is not None:
         scenario.launcher.distribution = args.distribution
         validate(scenario, "--distribution")
@@ -358,11 +359,12 @@ def _scenario(args):
     return scenario
 
 
-def _use_shipped_artefacts(player: str | None, scenario, artefact_set: str | None = None
-                          ) -> None:
+def _use_shipped_artefacts(player: str | None, scenario, artefact_set: str | None = None,
+                          configuration_given: bool = False) -> None:
     """A learned player given no artefact (none on the command line, none in the scenario)
     plays with a shipped set: ``artefact_set`` (``--artefacts``), by default ``paper``, the
-    ones in tt_drake/models/learned/ (what ``make demo`` shows). A set is the whole player:
+    ones in tt_drake/models/learned/ (what ``make demo`` shows), with the set's moving goal and,
+    unless ``--configuration`` was given, its hitting configuration. A set is the whole player:
     naming files too is refused (CliError, one line)."""
     from tt_drake.models import ARTEFACT_SETS, shipped_artefact
 
@@ -377,6 +379,8 @@ def _use_shipped_artefacts(player: str | None, scenario, artefact_set: str | Non
     learned.library, learned.crkr, learned.predictor = (
         str(shipped_artefact(kind, chosen)) for kind in ("library", "crkr", "predictor"))
     learned.moving_goal = learned.moving_goal or ARTEFACT_SETS[chosen].moving_goal
+    if not configuration_given:
+        learned.configuration = ARTEFACT_SETS[chosen].configuration
     print(f"tt-drake: the {player} player uses the shipped artefacts in "
           f"{shipped_artefact('library', chosen).parent}", file=sys.stderr)
 

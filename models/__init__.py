@@ -13,17 +13,21 @@ SHIPPED_ARTEFACTS = {"library": "library.npz", "crkr": "crkr.npz", "predictor": 
 @dataclass(frozen=True)
 class ArtefactSet:
     """A shipped set of learned-player artefacts: its folder and the player settings it was
-    trained and measured with (``LearnedPlayerConfig.moving_goal``)."""
+    trained and measured with (``LearnedPlayerConfig.moving_goal`` and ``configuration``, the
+    latter unless the command line names one)."""
 
     folder: str
     moving_goal: bool = False
+    configuration: str = "crkr"
 
 
 #: ``paper``: the paper profile's run on default serves (``tt-drake reproduce``); ``hard``: the
-#: hard profile's training stages on spin, real and rally serves (docs/learned_player.md, "The
-#: hard artefacts"), played with the hitting DMP's moving goal.
+#: hard profile's training stages on spin, real and rally serves (models/learned-hard/README.md),
+#: played with the hitting DMP's moving goal and the teacher's IK as the hitting configuration
+#: (its CrKR, trained on 111 strokes, returned fewer real serves: docs/learned_player.md).
 ARTEFACT_SETS = {"paper": ArtefactSet("learned"),
-                 "hard": ArtefactSet("learned-hard", moving_goal=True)}
+                 "hard": ArtefactSet("learned-hard", moving_goal=True,
+                                     configuration="analytical")}
 
 
 def shipped_artefact(kind: str, artefact_set: str = "paper") -> Path:
