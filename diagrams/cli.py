@@ -12,9 +12,10 @@
                                 [--alpha-y 35] [--hitting-borrow 0.5] [--stage-borrow 0.5]
     tt-drake serve --player momp [--library FILE --crkr FILE --predictor FILE]
                    [--configuration crkr|analytical] ...   (no FILE: the shipped artefacts)
+    tt-drake serve --player momp --artefacts hard ...  (the hard protocol's shipped artefacts)
     tt-drake serve --player crkr [--crkr FILE --predictor FILE] ...  (CrKR + teacher's quintics)
     tt-drake reproduce --out DIR [--quick] [--workers N] [--executor local|ray]
-                       [--protocol paper|hard]
+                       [--protocol paper|hard] [--sizes full|quick|artefacts] [--until STAGE]
     tt-drake rally --players A B --rallies N --seed S [--start serve|rally] [--max-exchanges 50]
                    [--html out.html] [--json out.json] [--workers W]   (docs/rally.md)
     tt-drake --version
@@ -40,6 +41,9 @@ class CliError(Exception):
 # SOURCES and tt_drake.diagrams.parallel.EXECUTORS).
 PLAYER_NAMES = ("idle", "analytical", "momp", "crkr")
 CONFIGURATION_NAMES = ("crkr", "analytical")
+ARTEFACT_SET_NAMES = ("paper", "hard")  # tt_drake.models.ARTEFACT_SETS
+REPRODUCE_STAGES = ("teacher", "predictor", "library", "crkr", "single", "gamma1",
+                    "responsibility", "power", "final")  # tt_drake.diagrams.reproduce.STAGES
 EXECUTOR_NAMES = ("local", "ray")
 
 
@@ -151,7 +155,7 @@ def _add_scenario_options(p: argparse.ArgumentParser) -> None:
                         "default, 100 for spin; default: the scenario's)")
 
 
-def _add_learned_options(p: argparse.ArgumentParser) -> None:
+def _add_learned_options(p: argparse.ArgumentParser, artefact_sets: bool = True) -> None:
     p.add_argument("--library", default="",
                    help="momp player: primitive library (tt-drake train library). With none of "
                         "--library, --crkr, --predictor (and none in the scenario) the learned "
@@ -160,11 +164,19 @@ def _add_learned_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--predictor", default="",
                    help="learned players: GPR predictor (tt-drake train-predictor); not given "
                         "with --library or --crkr: the physical model")
-    p.add_argument("--configuration", default="crkr",
+    p.add_argument("--configuration", default=None,
                    type=_one_of("hitting configuration", CONFIGURATION_NAMES),
                    choices=CONFIGURATION_NAMES,
                    help="learned players: hitting configuration from the CrKR model or the "
-                        "analytical IK")
+                        "analytical IK (default: crkr; with --artefacts, the set's)")
+    if not artefact_sets:
+        return
+    p.add_argument("--artefacts", default=None, type=_one_of("artefact set", ARTEFACT_SET_NAMES),
+                   choices=ARTEFACT_SET_NAMES,
+                   help="learned players: the shipped artefact set to play with when no file "
+                        "is named (paper: tt_drake/models/learned/, the default; hard: "
+                        "tt_drake/models/learned-hard/, trained on spin, real and rally serves, "
+                        "played with the hitting DMP's moving goal)")
 
 
 def _add_player_option(p: argparse.ArgumentParser, default: str | None) -> None:
@@ -223,7 +235,7 @@ def build_parser() -> argparse.ArgumentParser:
     rally.add_argument("--workers", type=_positive_int, default=1,
                        help="parallel worker processes (not with --html)")
     _add_scenario_options(rally)
-    _add_learned_options(rally)
+    _add_learned_options(rally, artefact_sets=False)
     # The shipped CrKR model learned the serve task's target; the rally aims elsewhere.
     rally.set_defaults(configuration="analytical")
 
@@ -312,6 +324,13 @@ def build_parser() -> argparse.ArgumentParser:
                      help="paper: the paper's experiments on default serves; hard: learn from "
                           "spin and recorded serves, judged on unseen ones against the oracle "
                           "teacher's ceiling (docs/reproducing.md)")
+    rep.add_argument("--sizes", default=None, choices=("full", "quick", "artefacts"),
+                     help="the stages' serve counts: full (the default), quick (= --quick), or "
+                          "artefacts (the training stages' sizes that made "
+                          "models/learned-hard/, with --until crkr)")
+    rep.add_argument("--until", default=None, choices=REPRODUCE_STAGES,
+                     help="stop after this stage; from crkr on, export the artefacts trained so "
+                          "far to DIR/artefacts/")
     rep.add_argument("--quiet", action="store_true", help="no progress output")
     return parser
 
@@ -325,8 +344,9 @@ def _scenario(args):
         learned.library = args.library or learned.library
         learned.crkr = args.crkr or learned.crkr
         learned.predictor = args.predictor or learned.predictor
-        learned.configuration = args.configuration
-        _use_shipped_artefacts(args.player, scenario)
+        learned.configuration = args.configuration or "crkr"
+        _use_shipped_artefacts(args.player, scenario, getattr(args, "artefacts", None),
+                               args.configuration is not None)
     if args.distribution is not None:
         scenario.launcher.distribution = args.distribution
         validate(scenario, "--distribution")
@@ -339,18 +359,30 @@ def _scenario(args):
     return scenario
 
 
-def _use_shipped_artefacts(player: str | None, scenario) -> None:
+def _use_shipped_artefacts(player: str | None, scenario, artefact_set: str | None = None,
+                          configuration_given: bool = False) -> None:
     """A learned player given no artefact (none on the command line, none in the scenario)
-    plays with the ones shipped in tt_drake/models/learned/ (what ``make demo`` shows)."""
-    from tt_drake.models import shipped_artefact
+    plays with a shipped set: ``artefact_set`` (``--artefacts``), by default ``paper``, the
+    ones in tt_drake/models/learned/ (what ``make demo`` shows), with the set's moving goal and,
+    unless ``--configuration`` was given, its hitting configuration. A set is the whole player:
+    naming files too is refused (CliError, one line)."""
+    from tt_drake.models import ARTEFACT_SETS, shipped_artefact
 
     learned = scenario.learned
-    if player not in ("momp", "crkr") or learned.library or learned.crkr or learned.predictor:
+    named = learned.library or learned.crkr or learned.predictor
+    if artefact_set is not None and named:
+        raise CliError("--artefacts picks a shipped set of library, CrKR and predictor; "
+                         "name either it or artefact files, not both")
+    if player not in ("momp", "crkr") or named:
         return
+    chosen = artefact_set or "paper"
     learned.library, learned.crkr, learned.predictor = (
-        str(shipped_artefact(kind)) for kind in ("library", "crkr", "predictor"))
+        str(shipped_artefact(kind, chosen)) for kind in ("library", "crkr", "predictor"))
+    learned.moving_goal = learned.moving_goal or ARTEFACT_SETS[chosen].moving_goal
+    if not configuration_given:
+        learned.configuration = ARTEFACT_SETS[chosen].configuration
     print(f"tt-drake: the {player} player uses the shipped artefacts in "
-          f"{shipped_artefact('library').parent}", file=sys.stderr)
+          f"{shipped_artefact('library', chosen).parent}", file=sys.stderr)
 
 
 def _check_serves(scenario) -> None:
@@ -531,10 +563,14 @@ def _train(args) -> None:
 
 
 def _reproduce(args) -> None:
-    from tt_drake.diagrams.reproduce import reproduce
+    from tt_drake.diagrams.reproduce import SIZES, reproduce
 
-    report = reproduce(args.out, args.quick, args.workers, args.executor,
-                       progress=not args.quiet, protocol=args.protocol)
+    if args.quick and args.sizes not in (None, "quick"):
+        raise CliError(f"--quick and --sizes {args.sizes} disagree; give one")
+    quick = args.quick or args.sizes == "quick"
+    report = reproduce(args.out, quick, args.workers, args.executor,
+                       progress=not args.quiet, protocol=args.protocol,
+                       config=SIZES[args.sizes]() if args.sizes else None, until=args.until)
     for row in report["table"]:
         print(f"{row['experiment']}: paper {row['paper']}, ours {row['ours']}")
     print(f"wrote {args.out}/report.md and {args.out}/report.json")

@@ -181,11 +181,12 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     from tt_drake.ball_model import CompliantBounceBallModel
     from tt_drake.estimation import config_from_dict
     from tt_drake.hitting_point import PhysicalPredictor
+    from tt_drake.hitting_time import HittingBand
     from tt_drake.systems.analytical_player import PlannerConfig, StrokePlanner
     from tt_drake.systems.hitting_configuration import HittingConfiguration
     from tt_drake.systems.hitting_ik import HittingIK
     from tt_drake.systems.hitting_point_predictor import HittingPointPredictor
-    from tt_drake.systems.momp_player import MoMPTrajectorySource
+    from tt_drake.systems.momp_player import MOVING_GOAL_CUTOFF, MoMPConfig, MoMPTrajectorySource
 
     learned = load_learned_player(scenario, primitives)
     # A GPR is fed the estimates of the filter it was trained on (docs/spin.md).
@@ -202,8 +203,11 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     # follows the ball from there (docs/spin.md). One stateless physical predictor serves both.
     refresh = PhysicalPredictor(CompliantBounceBallModel(dt=5e-3)) if primitives else None
     early = refresh if scenario.learned.early_prediction else None
+    # With the moving goal the refreshed predictions choose the hitting point as the teacher
+    # does (the plane, else along the path: tt_drake.hitting_time).
+    band = HittingBand() if scenario.learned.moving_goal else None
     predictor = builder.AddNamedSystem("hitting_point_predictor", HittingPointPredictor(
-        gpr=learned["gpr"], early=early, refresh=refresh))
+        gpr=learned["gpr"], early=early, refresh=refresh, band=band))
     builder.Connect(estimator.GetOutputPort("state"), predictor.GetInputPort("state"))
     builder.Connect(estimator.GetOutputPort("spin"), predictor.GetInputPort("spin"))
     builder.Connect(estimator.GetOutputPort("status"), predictor.GetInputPort("status"))
@@ -217,7 +221,9 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     crkr = learned.get("crkr")
     player = builder.AddNamedSystem("momp_player", MoMPTrajectorySource(
         learned.get("library"), learned.get("stages"), arm=HittingIK(),
-        setpoint_lead=SETPOINT_LEAD, stimulus=None if crkr is None else crkr.stimulus))
+        setpoint_lead=SETPOINT_LEAD, stimulus=None if crkr is None else crkr.stimulus,
+        config=MoMPConfig(goal_cutoff=MOVING_GOAL_CUTOFF if scenario.learned.moving_goal
+                          else None)))
     for name in ("p_hit", "v_hit", "t_hit", "valid", "spin_hit"):
         builder.Connect(predictor.GetOutputPort(name), configuration.GetInputPort(name))
     for name in ("p_hit", "v_hit", "t_hit", "spin_hit"):

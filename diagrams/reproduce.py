@@ -46,7 +46,7 @@ import json
 import shutil
 import sys
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -120,6 +120,16 @@ def quick_config() -> ReproduceConfig:
         predictor_restarts=0)
 
 
+def artefacts_config() -> ReproduceConfig:
+    """The sizes that trained the shipped hard artefacts (``models/learned-hard/``, with
+    ``--protocol hard --sizes artefacts --until crkr``): the training stages only, sized for a
+    session on a shared 2-core machine (50 teacher serves of each training distribution); CrKR
+    is its first policy iteration (the teacher's pairs)."""
+    return replace(ReproduceConfig(), teacher_serves=150, predictor_train_serves=300,
+                   predictor_test_serves=90, predictor_restarts=0, primitives=200,
+                   crkr_serves=30, crkr_max_iterations=1)
+
+
 @dataclass(frozen=True)
 class Protocol:
     """Which serves a run learns from and is judged on.
@@ -141,6 +151,9 @@ class Protocol:
     # The GPR's feature set (``tt_drake.hitting_point``), trained on the ``train`` mix when not
     # the paper's ``states`` (the paper's predictor learns from default serves only).
     predictor_features: str = "states"
+    # The momp player's hitting DMP follows each new prediction until the cut-off (the moving
+    # goal, ``LearnedPlayerConfig.moving_goal``); the paper profile commits at the swing start.
+    moving_goal: bool = False
 
     def library_settings(self, config):
         """The settings the library and CrKR stages read: the protocol's, else ``config``'s."""
@@ -159,7 +172,8 @@ PROTOCOLS = {
     # impact), gates and configures on the spin too; its GPR reads the estimated spin.
     "hard": Protocol("hard", ("spin", "real-train", "rally-train"),
                      (("spin", "spin"), ("real-test", "real-test")), ceiling=True,
-                     library=tuple(HARD_PROFILE.items()), predictor_features="states+spin"),
+                     library=tuple(HARD_PROFILE.items()), predictor_features="states+spin",
+                     moving_goal=True),
 }
 
 
@@ -226,6 +240,7 @@ class Run:
         learned = scenario.learned
         learned.library, learned.crkr, learned.predictor = library, crkr, predictor
         learned.configuration = configuration
+        learned.moving_goal = self.protocol.moving_goal
         if distribution is not None:
             scenario.launcher.distribution = distribution
         return scenario
@@ -401,7 +416,7 @@ def _merge_datasets(folders: list[Path], out: Path) -> float:
         for key, value in data.items():
             if key == "manifest":
                 continue
-            if key in ("index", "trajectory_serve"):
+            if key == "index" or key.endswith("_serve"):  # trajectory_serve, recorded_serve
                 value = value + offset
             arrays.setdefault(key, []).append(value)
         offset += n
@@ -782,17 +797,20 @@ def stage_final(run: Run) -> dict:
     return out
 
 
-def _export_artefacts(run: Run, library: str) -> dict:
+def _export_artefacts(run: Run, library: str, until: str | None = None) -> dict:
     """The final player's three artefacts in ``DIR/artefacts/`` (what ``make demo`` ships in
-    models/learned/), with where they came from."""
+    models/learned/), with where they came from; ``until``: the run stopped after that stage."""
     folder = run.folder("artefacts")
     sources = {"library.npz": library, "crkr.npz": run.result("crkr")["best"],
                "predictor.npz": run.result("predictor")["model"]}
     for name, source in sources.items():
         shutil.copyfile(run.path(source), folder / f".{name}.tmp")
         (folder / f".{name}.tmp").replace(folder / name)
+    sizes = next((name for name, make in SIZES.items() if make() == run.config), None)
     command = "tt-drake reproduce" + (" --quick" if run.quick else "") + (
-        f" --protocol {run.protocol.name}" if run.protocol.name != "paper" else "")
+        f" --protocol {run.protocol.name}" if run.protocol.name != "paper" else "") + (
+        f" --sizes {sizes}" if sizes not in (None, "full", "quick") else "") + (
+        f" --until {until}" if until else "")
     provenance = {"command": command, "protocol": run.protocol.name,
                   "config": run.config.to_dict(), **run_provenance(),
                   "sources": {name: run.rel(run.path(source)) for name, source in sources.items()}}
@@ -806,11 +824,17 @@ STAGE_FUNCTIONS = {"teacher": stage_teacher, "predictor": stage_predictor,
                    "power": stage_power, "final": stage_final}
 
 
+#: Named stage sizes (``--sizes``): the full run, the CI-sized one, the hard artefacts' training.
+SIZES = {"full": ReproduceConfig, "quick": quick_config, "artefacts": artefacts_config}
+
+
 def reproduce(out, quick: bool = False, workers: int | None = None, executor: str = "local",
               progress: bool = True, config: ReproduceConfig | None = None,
-              protocol: str = "paper") -> dict:
+              protocol: str = "paper", until: str | None = None) -> dict:
     """Run the missing stages, then write the report; returns the report dict. ``protocol``:
-    a name in :data:`PROTOCOLS`."""
+    a name in :data:`PROTOCOLS`. ``until``: stop after this stage; a run stopped after the
+    ``crkr`` stage (or later, before ``final``) exports the library, CrKR and predictor trained
+    so far to ``DIR/artefacts/`` (the primitives with gamma = 1 if no learning stage ran)."""
     from tt_drake.diagrams.inputs import check_inputs
     from tt_drake.diagrams.parallel import EXECUTORS, default_workers, executor_session
     from tt_drake.diagrams.report import write_report
@@ -822,6 +846,8 @@ def reproduce(out, quick: bool = False, workers: int | None = None, executor: st
     if protocol not in PROTOCOLS:
         raise ReproduceError(f"unknown protocol {protocol!r}; choose one of "
                              f"{', '.join(PROTOCOLS)}")
+    if until is not None and until not in STAGES:
+        raise ReproduceError(f"unknown stage {until!r}; choose one of {', '.join(STAGES)}")
     config = config or (quick_config() if quick else ReproduceConfig())
     # Every file a stage will read, checked before the first stage: the final stage serves real
     # ball states (serves.json) after hours of the others.
@@ -838,8 +864,15 @@ def reproduce(out, quick: bool = False, workers: int | None = None, executor: st
             started = time.perf_counter()
             result = run.finish(stage, STAGE_FUNCTIONS[stage](run), started)
             run.say(f"[{k}/{len(STAGES)}] {stage}: {result['wall_seconds']:.0f} s")
+            if stage == until:
+                break
+        if until is not None and STAGES.index(until) >= STAGES.index("crkr") \
+                and until != "final":
+            learned = run.result("power") or run.result("responsibility") or run.result(
+                "library")
+            _export_artefacts(run, learned["library"], until)
     return write_report(run)
 
 
-__all__ = ["reproduce", "ReproduceConfig", "quick_config", "ReproduceError", "STAGES", "rates",
-           "PROTOCOLS", "Protocol", "ceiling_rates"]
+__all__ = ["reproduce", "ReproduceConfig", "quick_config", "artefacts_config", "SIZES",
+           "ReproduceError", "STAGES", "rates", "PROTOCOLS", "Protocol", "ceiling_rates"]

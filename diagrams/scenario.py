@@ -73,6 +73,10 @@ class LearnedPlayerConfig:
     predictor: str = ""
     configuration: str = "crkr"
     early_prediction: bool = True
+    # The hitting DMP's moving goal (issue #14): the hitting stage follows each new prediction
+    # until ``MoMPConfig.goal_cutoff`` before the hit instead of committing at its start. Off in
+    # the paper profile; the hard artefacts turn it on (``tt-drake serve --artefacts hard``).
+    moving_goal: bool = False
 
 
 @dataclass

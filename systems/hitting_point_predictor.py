@@ -47,6 +47,7 @@ from pydrake.systems.framework import LeafSystem
 
 from tt_drake.constants import PLANES
 from tt_drake.hitting_point import N_OBSERVATIONS, HittingPointGPR, PhysicalPredictor
+from tt_drake.hitting_time import choose_hitting_point
 from tt_drake.wam_params import PLANNING_RATE
 
 _OBS = 2
@@ -60,10 +61,16 @@ class HittingPointPredictor(LeafSystem):
                  early: PhysicalPredictor | None = None,
                  early_tolerance: tuple[float, float] = (0.02, 0.01),
                  refresh: PhysicalPredictor | None = None,
-                 refresh_tolerance: tuple[float, float] = (0.02, 0.01), play_again: bool = False):
+                 refresh_tolerance: tuple[float, float] = (0.02, 0.01), play_again: bool = False,
+                 band=None):
         """``play_again`` (the rally): a valid estimate of a ball flying away (v_y > 0) drops
-        the prediction and the observations (``valid`` = 0), ready for the next ball."""
+        the prediction and the observations (``valid`` = 0), ready for the next ball. ``band``
+        (a :class:`tt_drake.hitting_time.HittingBand`): the refreshed predictions choose the
+        hitting point along the path as the teacher does (:func:`tt_drake.hitting_time.
+        choose_hitting_point`: the plane when it serves, else where the ball falls through the
+        band's height); None: the plane crossing."""
         super().__init__()
+        self.band = band
         self.play_again = play_again
         if gpr is None and physical is None:
             physical = PhysicalPredictor()
@@ -114,7 +121,7 @@ class HittingPointPredictor(LeafSystem):
         start = _with_spin(observations[-1], spin)
         if self.gpr is None:
             return _crossing(self.physical, start)
-        pred = self.gpr.predict(observations.reshape(-1))
+        pred = self.gpr.predict(self.gpr.features(observations, spin))
         if pred is None:
             return None
         hit = self._spin_model.predict_plane(start, self._plane_y)
@@ -128,7 +135,11 @@ class HittingPointPredictor(LeafSystem):
         more than ``refresh_tolerance`` from the published one; else None."""
         if s[4] >= 0.0 or s[1] >= self.observation_y:
             return None
-        hit = self.refresh.model.predict_plane(_with_spin(s, spin), self.refresh.plane_y)
+        if self.band is None:
+            hit = self.refresh.model.predict_plane(_with_spin(s, spin), self.refresh.plane_y)
+        else:
+            hit = choose_hitting_point(self.refresh.model, _with_spin(s, spin),
+                                       self.refresh.plane_y, self.band)
         if hit is None or hit.bounces:
             return None  # the robot-side bounce is still ahead
         pred = np.concatenate([hit.position, hit.velocity, [hit.t], hit.spin])

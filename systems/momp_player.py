@@ -49,7 +49,12 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 
 from tt_drake import wam_params as wp
-from tt_drake.learned_player import MoMPStroke, plan_momp_stroke, within_limits
+from tt_drake.learned_player import (
+    MoMPStroke,
+    move_hitting_goal,
+    plan_momp_stroke,
+    within_limits,
+)
 from tt_drake.momp import MotorPrimitiveLibrary
 from tt_drake.stages import (
     AWAITING,
@@ -65,6 +70,9 @@ from tt_drake.stages import (
 from tt_drake.stimulus import PAPER_STIMULUS, compose_stimulus, stimulus_layout, stimulus_size
 from tt_drake.systems.immutable import Immutable
 from tt_drake.systems.stage_player import StagePlanPlayer, remaining
+
+# The moving goal's cut-off (s before the hit) when the scenario turns it on: the teacher's.
+MOVING_GOAL_CUTOFF = 0.08
 
 
 @dataclass(frozen=True)
@@ -89,6 +97,13 @@ class MoMPConfig:
     # above 10 rad/s; 1.5x: 199/200, peak 7.8 rad/s; 0.9x (the teacher's budget): 186/200 -
     # re-plans near the hit are refused and the stroke keeps aiming at an earlier prediction.
     torque_fraction: float = 1.5
+    # The hitting DMP's moving goal (Eq. 4, section III-C): with a value, the hitting stage is
+    # not committed at its start; each new prediction (the predictor's refreshed, spin-aware one
+    # after the robot-side bounce) moves its goal (theta_hit, theta_dot_hit, t_hit) until this
+    # long before the hit (s), as the teacher's corrections stop 80 ms before it
+    # (:func:`tt_drake.learned_player.move_hitting_goal`). None: the paper profile's player,
+    # committed at the swing start.
+    goal_cutoff: float | None = None
 
 
 class _State(Immutable):
@@ -171,9 +186,14 @@ class MoMPTrajectorySource(StagePlanPlayer):
             return
         plan = old.plan
         hit = next((seg for stage, seg in plan.segments if stage == HITTING), None)
-        if hit is not None and now >= hit.t0:  # the hitting stage has begun: no more re-plans
-            state.get_mutable_abstract_state(self._index).set_value(
-                _State(plan, old.stroke, committed=True))
+        if hit is not None and now >= hit.t0:  # the hitting stage has begun
+            cutoff = self.config.goal_cutoff
+            if (cutoff is None or self.library is None or old.stroke is None
+                    or now > old.stroke.t_hit - cutoff):  # no more re-plans
+                state.get_mutable_abstract_state(self._index).set_value(
+                    _State(plan, old.stroke, committed=True))
+            else:
+                self._move_goal(context, state, old, now)
             return
         if self._valid.Eval(context)[0] < 0.5:
             return
@@ -207,6 +227,35 @@ class MoMPTrajectorySource(StagePlanPlayer):
                             fallback)
         abstract.set_value(_State(StagePlan(plan.truncated(now).segments + new.segments), stroke,
                                   False, seen))
+
+    def _move_goal(self, context, state, old: _State, now: float) -> None:
+        """During the hitting stage, before the cut-off: a prediction that differs from the
+        stroke's goal (re-planning thresholds) moves the hitting DMP's goal if the plan that
+        comes of it stays inside the joint and effort limits; otherwise the stroke keeps its
+        goal and the move is tried again at the next planning tick (a re-plan refused before
+        the hitting stage is tried again here too)."""
+        if self._valid.Eval(context)[0] < 0.5:
+            return
+        p_hit, t_hit = self._p.Eval(context), float(self._t.Eval(context)[0])
+        seen = (t_hit, float(p_hit[0]), float(p_hit[1]), float(p_hit[2]))
+        q_hit, qd_hit = self._q_hit.Eval(context), self._qd_hit.Eval(context)
+        if (t_hit - now < self.config.goal_cutoff
+                or not self._needs_replan(old.stroke, p_hit, t_hit, q_hit, qd_hit)):
+            return
+        spin = self._spin.Eval(context) if self._spin.HasValue(context) else None
+        x = compose_stimulus(self.stimulus, p_hit, self._v.Eval(context), spin)
+        try:
+            new, idx, nu = move_hitting_goal(now, old.plan, x, t_hit, q_hit, qd_hit,
+                                             self.library, self.stages, self.q_await,
+                                             self.limits, self.config.times)
+        except ValueError:
+            return
+        ahead = StagePlan([(s, seg) for s, seg in new.segments if seg.t0 >= now])
+        if not (within_limits(ahead, self.limits) and self._within_effort(new, now)):
+            return
+        stroke = MoMPStroke(x, t_hit, np.array(q_hit), np.array(qd_hit), idx, nu,
+                            old.stroke.replans + 1, False)
+        state.get_mutable_abstract_state(self._index).set_value(_State(new, stroke, False, seen))
 
     def _plan_primitives(self, now, plan, x, t_hit, q_hit, qd_hit, preparing):
         """The first motor-primitive plan inside the joint limits (hitting-stage durations tried

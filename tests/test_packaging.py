@@ -103,7 +103,8 @@ def test_the_wheel_holds_every_module_model_and_shipped_artefact(wheel_venv):
     names = set(zipfile.ZipFile(wheel).namelist())
     expected = _expected_files()
     assert {"tt_drake/modelgen/wam.py", "tt_drake/data/serves.json",
-            "tt_drake/models/learned/library.npz", "tt_drake/diagrams/cli.py"} <= expected
+            "tt_drake/models/learned/library.npz", "tt_drake/diagrams/cli.py",
+            "tt_drake/models/learned-hard/library.npz"} <= expected
     assert expected <= names, sorted(expected - names)
     assert _warnings(build_log) == [] and _warnings(install_log) == []
 

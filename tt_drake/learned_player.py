@@ -58,7 +58,7 @@ from tt_drake.stimulus import PAPER_STIMULUS, stimulus_layout, stimulus_size
 __all__ = ["SampledSegment", "StagePrimitive", "blend_start_acceleration", "MoMPStroke",
            "plan_momp_stroke", "BLEND_TIME", "LearnedArtefactError", "save_player_library",
            "load_player_library", "save_configuration_model", "load_configuration_model",
-           "ConfigurationModel", "within_limits"]
+           "ConfigurationModel", "within_limits", "move_hitting_goal"]
 
 BLEND_TIME = 0.1  # s
 _TIMES = StageTimes()
@@ -264,7 +264,15 @@ def plan_momp_stroke(now: float, state, stimulus, t_hit: float, q_hit, qd_hit,
     hit = library.plan(stimulus, start[0], q_hit, qd_hit, t_hit - t0, yd0=start[1], rate=rate)
     hit = blend_start_acceleration(hit, start[2])
     segments.append((HITTING, SampledSegment.from_trajectory(t0, hit)))
+    _finish_stroke(segments, t_hit, dmp, stages, q_await, limits, times, rate)
+    return StagePlan(segments), idx, nu
+
+
+def _finish_stroke(segments: list, t_hit: float, dmp: HittingDMP, stages: dict, q_await,
+                   limits: JointLimits, times: StageTimes, rate: float) -> None:
+    """Append the follow-through and awaiting DMPs after the hitting segment ``segments[-1]``."""
     end = segments[-1][1].end_state()
+    zero = np.zeros_like(end[0])
     t_follow = follow_through_time(end[0], end[1], limits, times)
     q_end = limits.clip(end[0] + 0.5 * t_follow * end[1])
     follow = stages[FOLLOW_THROUGH].rollout(dmp, end, q_end, zero, t_follow, rate)
@@ -273,6 +281,50 @@ def plan_momp_stroke(now: float, state, stimulus, t_hit: float, q_hit, qd_hit,
     back = stages[AWAITING].rollout(dmp, end, np.asarray(q_await, dtype=float), zero,
                                     times.return_to_awaiting, rate)
     segments.append((AWAITING, SampledSegment.from_trajectory(segments[-1][1].t_end, back)))
+
+
+def move_hitting_goal(now: float, plan: StagePlan, stimulus, t_hit: float, q_hit, qd_hit,
+                      library: MotorPrimitiveLibrary, stages: dict, q_await,
+                      limits: JointLimits, times: StageTimes = _TIMES, rate: float = 500.0
+                      ) -> tuple[StagePlan, np.ndarray, np.ndarray]:
+    """The hitting stage of ``plan`` (under way at ``now``) with its goal moved to the new
+    hitting configuration ``(q_hit, qd_hit)`` at ``t_hit``: the hitting DMP's moving goal
+    (Eq. 4: ``g_f``, ``g_dot`` and the duration are the supervisor's latest, section III-C).
+
+    The mixture (Eq. 6) for the new ``stimulus`` is rolled out from the hitting stage's start
+    state at its start ``t0`` (the phase keeps running from there) to the new goal. At ``now`` it
+    differs from the plan being executed by ``(dq, dq_dot, dq_ddot)``; the quintic with those
+    values at ``now`` and zero position, velocity and acceleration at ``t_hit`` is added to it
+    from ``now`` on, so the desired motion stays C2 and arrives exactly at the new goal. The
+    part executed before ``now`` is kept; the follow-through and awaiting DMPs follow as in
+    :func:`plan_momp_stroke`. Returns (plan, primitive indices, mixture weights); ValueError if
+    the plan has no hitting stage under way or ``t_hit`` is not after ``now``.
+    """
+    hit = next((seg for stage, seg in plan.segments if stage == HITTING), None)
+    if hit is None or not hit.t0 <= now:
+        raise ValueError("no hitting stage under way")
+    if t_hit - now <= 1e-2:
+        raise ValueError(f"no time left to move the goal: t_hit {t_hit:.3f} s, now {now:.3f} s")
+    q0, qd0, qdd0 = hit.evaluate(hit.t0)
+    idx, nu = library.active(stimulus)
+    rollout = library.plan(stimulus, q0, np.asarray(q_hit, dtype=float),
+                           np.asarray(qd_hit, dtype=float), t_hit - hit.t0, yd0=qd0, rate=rate)
+    moved = SampledSegment.from_trajectory(hit.t0, blend_start_acceleration(rollout, qdd0))
+    old, new = plan.evaluate(now), moved.evaluate(now)
+    span = t_hit - now
+    n = max(2, int(math.ceil(span * rate)))
+    s = np.linspace(0.0, span, n + 1)
+    q, qd, qdd = moved.evaluate_many(now + s)
+    zero = np.zeros_like(q0)
+    c = quintic_coefficients(old[0] - new[0], old[1] - new[1], old[2] - new[2], zero, zero,
+                             zero, span)  # (D, 6)
+    powers = s[:, None] ** np.arange(6)
+    q = q + powers @ c.T
+    qd = qd + (powers[:, :5] * np.arange(1, 6)) @ c[:, 1:].T
+    qdd = qdd + (powers[:, :4] * np.array([2.0, 6.0, 12.0, 20.0])) @ c[:, 2:].T
+    segments = plan.truncated(now).segments
+    segments.append((HITTING, SampledSegment.from_trajectory(now, Trajectory(s, q, qd, qdd))))
+    _finish_stroke(segments, t_hit, library.dmp, stages, q_await, limits, times, rate)
     return StagePlan(segments), idx, nu
 
 

@@ -1,0 +1,87 @@
+"""The hitting DMP's moving goal (issue #14): during the hitting stage, until the cut-off, a new
+prediction moves the stroke's goal; the paper profile's player (no cut-off) stays committed."""
+
+import numpy as np
+
+from tt_drake.learned_player import move_hitting_goal
+from tt_drake.stages import HITTING
+from tt_drake.systems.momp_player import MoMPConfig, MoMPTrajectorySource
+
+from .test_momp_player import Q_HIT, QD_HIT, T_HIT, fix_inputs, synthetic_library
+
+
+def _stroke_under_way(config=None):
+    """A player whose hitting stage (0.4 s before T_HIT) has begun."""
+    library, stages, stimuli = synthetic_library()
+    player = MoMPTrajectorySource(library, stages, config=config)
+    context = player.CreateDefaultContext()
+    fix_inputs(player, context, stimuli[0], T_HIT)
+    context.SetTime(0.1)
+    player.ExecuteForcedEvents(context)
+    hit = next(seg for stage, seg in player.player_state(context).plan.segments
+               if stage == HITTING)
+    context.SetTime(hit.t0 + 0.1)
+    player.ExecuteForcedEvents(context)
+    return player, context, library, stages, stimuli
+
+
+def test_moved_goal_is_reached_and_the_motion_stays_c2():
+    player, context, library, stages, stimuli = _stroke_under_way()
+    plan = player.player_state(context).plan
+    now = context.get_time()
+    q_new, qd_new, t_new = Q_HIT + 0.04, QD_HIT - 0.2, T_HIT + 0.015
+    moved, idx, nu = move_hitting_goal(now, plan, stimuli[1], t_new, q_new, qd_new, library,
+                                       stages, player.q_await, player.limits,
+                                       player.config.times)
+    # The part executed before now is the old plan's, bit for bit.
+    for t in np.linspace(0.0, now - 1e-3, 50):
+        for a, b in zip(plan.evaluate(t), moved.evaluate(t), strict=True):
+            np.testing.assert_array_equal(a, b)
+    # At now: position, velocity and acceleration continuous.
+    for a, b in zip(plan.evaluate(now - 1e-9), moved.evaluate(now + 1e-9), strict=True):
+        np.testing.assert_allclose(a, b, atol=1e-5)
+    # It arrives at the new goal at the new hitting time, still in the hitting stage.
+    # (The DMP reaches its goal only asymptotically: to ~1e-6 rad and ~2e-4 rad/s here.)
+    q, qd, _ = moved.evaluate(t_new)
+    np.testing.assert_allclose(q, q_new, atol=1e-5)
+    np.testing.assert_allclose(qd, qd_new, atol=1e-3)
+    assert moved.stage_at(t_new - 1e-3) == HITTING
+    assert np.isclose(nu.sum(), 1.0) and len(idx) == len(nu)
+
+
+def test_an_unmoved_goal_leaves_the_stroke_as_it_was():
+    """Same stimulus, goal and t_hit: the mixture's rollout from the hitting stage's start is the
+    plan being executed, so the correction is zero."""
+    player, context, library, stages, stimuli = _stroke_under_way()
+    plan = player.player_state(context).plan
+    now = context.get_time()
+    moved, _, _ = move_hitting_goal(now, plan, stimuli[0], T_HIT, Q_HIT, QD_HIT, library, stages,
+                                    player.q_await, player.limits, player.config.times)
+    # Equal up to the resampling from now (one quintic per 2 ms interval on a shifted grid).
+    for t in np.linspace(now, T_HIT, 40):
+        for a, b, tol in zip(plan.evaluate(t), moved.evaluate(t), (1e-7, 1e-6, 1e-3),
+                             strict=True):
+            np.testing.assert_allclose(a, b, atol=tol)
+
+
+def test_the_player_moves_its_goal_until_the_cutoff_only_with_a_cutoff():
+    new_q = Q_HIT + 0.03
+    for cutoff in (None, 0.08):
+        player, context, _, _, stimuli = _stroke_under_way(MoMPConfig(goal_cutoff=cutoff))
+        fix_inputs(player, context, stimuli[0] + 0.02, T_HIT + 0.01, new_q, QD_HIT)
+        context.SetTime(context.get_time() + 0.004)
+        player.ExecuteForcedEvents(context)
+        state = player.player_state(context)
+        if cutoff is None:  # the paper profile: committed at the hitting stage's start
+            assert state.committed and state.stroke.replans == 1
+            np.testing.assert_allclose(state.plan.evaluate(T_HIT)[0], Q_HIT, atol=1e-3)
+            continue
+        assert not state.committed and state.stroke.replans == 2
+        np.testing.assert_allclose(state.plan.evaluate(T_HIT + 0.01)[0], new_q, atol=1e-5)
+        # After the cut-off a new prediction no longer moves it.
+        fix_inputs(player, context, stimuli[0], T_HIT + 0.01, Q_HIT, QD_HIT)
+        context.SetTime(T_HIT + 0.01 - 0.07)
+        player.ExecuteForcedEvents(context)
+        state = player.player_state(context)
+        assert state.committed and state.stroke.replans == 2
+        np.testing.assert_allclose(state.plan.evaluate(T_HIT + 0.01)[0], new_q, atol=1e-5)
