@@ -256,6 +256,9 @@ class EpisodeResult:
     arm: dict | None = None
     record: dict | None = field(default=None, repr=False)  # demonstration data (collect)
     stroke: dict | None = None  # the learned player's last plan (stroke_summary)
+    # CPU time of the process that ran the episode (process_time, s): with wall_time, how much
+    # of a core a worker got (tt-drake bench --workers; not written to the JSON).
+    cpu_time: float = 0.0
 
     def as_dict(self) -> dict:
         return {
@@ -441,7 +444,7 @@ class ServeDiagram:
         own timeline afterwards). ``gamma``: the momp player's responsibilities for this episode
         (default: the loaded library's); ``weights``: its hitting primitives' weights ``(P, D,
         B)`` for this episode (PoWER's explored weights; default: the loaded library's)."""
-        wall = time.perf_counter()
+        wall, cpu = time.perf_counter(), time.process_time()
         self._set_gamma(gamma)
         self._set_weights(weights)
         self.context.SetTimeStateAndParametersFrom(self._initial)
@@ -489,7 +492,8 @@ class ServeDiagram:
             if stroke is not None and self.final_logger is not None:
                 stroke["early_prediction"] = self._hit_on_early_prediction()
         return EpisodeResult(seed, list(serve.launch_state), list(crossing), duration, outcome,
-                             time.perf_counter() - wall, path, arm, record, stroke)
+                             time.perf_counter() - wall, path, arm, record, stroke,
+                             time.process_time() - cpu)
 
     def extend(self, seconds: float) -> None:
         """Simulate the last episode up to ``seconds`` longer (never past its time limit, nor

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import gc
 import time
 from collections import defaultdict
 from pathlib import Path
@@ -34,6 +35,7 @@ WRAPPED = [
     ("servo set-points (accel.)", "tt_drake.systems.stage_player", "StagePlanPlayer",
      "_calc_accel"),
     ("referee", "tt_drake.systems.referee", "Referee", "_update"),
+    ("ContactAccuracy monitor", "tt_drake.systems.world", "ContactAccuracy", "__call__"),
 ]
 
 
@@ -66,14 +68,25 @@ def main() -> None:
     diagram = ServeDiagram(scenario, args.player)
     diagram.run(episode_seed(args.seed, 0))
     spent.clear()
+    gc_started = []
+
+    def gc_clock(phase, info):  # the cyclic garbage collector's own time
+        if phase == "start":
+            gc_started.append(clock())
+        elif gc_started:
+            spent["garbage collector"] += clock() - gc_started.pop()
+
+    gc.callbacks.append(gc_clock)
     c0 = clock()
     for i in range(args.serves):
         diagram.run(episode_seed(args.seed, i))
     total = clock() - c0
+    gc.callbacks.remove(gc_clock)
     n = args.serves
     print(f"{args.player}: {1e3 * total / n:.1f} CPU ms per serve ({n} serves, seed {args.seed})")
     rows = [(label, spent[label]) for label, _, _, _ in WRAPPED if label in spent]
-    rows.append(("these systems together", sum(spent.values())))
+    rows.append(("these systems together", sum(cpu for _, cpu in rows)))
+    rows.append(("garbage collector", spent["garbage collector"]))
     for label, cpu in rows:
         print(f"  {label:28s} {1e3 * cpu / n:6.1f} ms {100 * cpu / total:5.1f} %")
 
