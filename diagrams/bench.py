@@ -27,7 +27,7 @@ import time
 import numpy as np
 from pydrake.systems.analysis import SimulatorConfig
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import Demultiplexer, TrajectorySource
+from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
@@ -160,9 +160,7 @@ def _replay_player(builder: DiagramBuilder, world, controller, scenario: Scenari
     rest = np.r_[AWAITING, np.zeros(14)]
     source = builder.AddNamedSystem("setpoint_replay", TrajectorySource(
         PiecewisePolynomial.FirstOrderHold([0.0, 1.0], np.column_stack([rest, rest]))))
-    split = builder.AddNamedSystem("setpoint_split", Demultiplexer([14, 7]))
-    builder.Connect(source.get_output_port(), split.get_input_port())
-    add_servo_hold(builder, split.get_output_port(0), split.get_output_port(1), controller)
+    add_servo_hold(builder, source.get_output_port(), controller)
     return []
 
 

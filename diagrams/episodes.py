@@ -30,7 +30,7 @@ from tt_drake.seeds import episode_seed  # noqa: F401  (re-exported: runners imp
 from tt_drake.systems.aerodynamics import add_aerodynamics
 from tt_drake.systems.ball_launcher import BallLauncher
 from tt_drake.systems.referee import Referee
-from tt_drake.systems.wam import add_servo_hold
+from tt_drake.systems.wam import SERVO_HOLD, add_servo_hold, hold_first_setpoint
 from tt_drake.systems.world import World, add_world, make_simulator, set_ball_state
 from tt_drake.wam_params import SERVO_PERIOD
 
@@ -105,8 +105,7 @@ def _analytical_player(builder: DiagramBuilder, world: World, controller,
     if estimator.HasOutputPort("spin"):  # the oracle's (and the spin-aware EKF's)
         builder.Connect(estimator.GetOutputPort("spin"), player.GetInputPort("estimated_spin"))
     builder.Connect(estimator.GetOutputPort("status"), player.GetInputPort("estimator_status"))
-    add_servo_hold(builder, player.GetOutputPort("desired_state"),
-                   player.GetOutputPort("desired_acceleration"), controller)
+    add_servo_hold(builder, player.GetOutputPort("setpoint"), controller)
     return seeded
 
 
@@ -226,8 +225,7 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
         builder.Connect(configuration.GetOutputPort(name), player.GetInputPort(name))
     builder.Connect(configuration.GetOutputPort("valid"),
                     player.GetInputPort("configuration_valid"))
-    add_servo_hold(builder, player.GetOutputPort("desired_state"),
-                   player.GetOutputPort("desired_acceleration"), controller)
+    add_servo_hold(builder, player.GetOutputPort("setpoint"), controller)
     return seeded
 
 
@@ -347,13 +345,11 @@ class ServeDiagram:
             builder.Connect(self.controller.GetOutputPort("actuation"),
                             self.torque_logger.get_input_port())
         self.setpoint_logs = []
-        if log_setpoints and builder.HasSubsystemNamed("servo_hold_desired_state"):
-            for name, size in (("desired_state", 14), ("desired_acceleration", 7)):
-                log = builder.AddNamedSystem(f"setpoint_logger_{name}",
-                                             VectorLogSink(size, SERVO_PERIOD))
-                builder.Connect(builder.GetSubsystemByName(f"servo_hold_{name}").get_output_port(),
-                                log.get_input_port())
-                self.setpoint_logs.append(log)
+        if log_setpoints and builder.HasSubsystemNamed(SERVO_HOLD):
+            log = builder.AddNamedSystem("setpoint_logger", VectorLogSink(21, SERVO_PERIOD))
+            builder.Connect(builder.GetSubsystemByName(SERVO_HOLD).get_output_port(),
+                            log.get_input_port())
+            self.setpoint_logs.append(log)
         self.player = None
         for name in ("analytical_player", "momp_player"):
             if builder.HasSubsystemNamed(name):
@@ -428,11 +424,7 @@ class ServeDiagram:
 
         plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
         self.world.plant.SetPositions(plant_context, self.world.robot, np.asarray(AWAITING))
-        for name in ("servo_hold_desired_state", "servo_hold_desired_acceleration"):
-            if self.diagram.HasSubsystemNamed(name):
-                hold = self.diagram.GetSubsystemByName(name)
-                hold_context = hold.GetMyMutableContextFromRoot(self.context)
-                hold.SetVectorState(hold_context, hold.get_input_port().Eval(hold_context))
+        hold_first_setpoint(self.diagram, self.context)
 
     @property
     def library(self):
@@ -589,11 +581,10 @@ class ServeDiagram:
         if not self.setpoint_logs:
             raise PlayerError("set-points are logged only with log_setpoints=True and a player "
                               "that drives the servo holds")
-        state, accel = (log.FindLog(self.context) for log in self.setpoint_logs)
+        log = self.setpoint_logs[0].FindLog(self.context)
         # A log entry at tick k is published before that tick's update: it holds the set-point
         # of tick k - 1.
-        held = np.vstack([state.data(), accel.data()]).T
-        return state.sample_times()[:-1].copy(), held[1:].copy()
+        return log.sample_times()[:-1].copy(), log.data().T[1:].copy()
 
 
 class SeedError(ValueError):
