@@ -196,10 +196,12 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     # prediction: with ~0.5 s left at detection its stages leave no room for a preparation, so
     # it began the hitting stage on the first early prediction and stayed committed to it
     # (1,300 serves, seed 21: 97.9 % legal returns instead of 100 %, every miss a single plan).
-    # dt = 5 ms: the same crossing as 2 ms to 1e-8 m on a serve, at 2.5x fewer RK4 steps.
+    # dt = 10 ms: the crossing of a 0.25 ms step to 7e-9 m in position, 1.3e-9 s in time and
+    # 1.6e-8 m/s in velocity on 1,920 states along 60 default and 60 spin serves (the same
+    # serves missing the plane), at half the RK4 steps of 5 ms (docs/performance.md, third pass).
     # After the robot-side bounce the estimator knows the spin: the MoMP player's prediction
     # follows the ball from there (docs/spin.md). One stateless physical predictor serves both.
-    refresh = PhysicalPredictor(CompliantBounceBallModel(dt=5e-3)) if primitives else None
+    refresh = PhysicalPredictor(CompliantBounceBallModel(dt=1e-2)) if primitives else None
     early = refresh if scenario.learned.early_prediction else None
     predictor = builder.AddNamedSystem("hitting_point_predictor", HittingPointPredictor(
         gpr=learned["gpr"], early=early, refresh=refresh))
