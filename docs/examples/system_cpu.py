@@ -7,7 +7,8 @@ players, servo set-points, referee, the ContactAccuracy monitor; those a checkou
 out) with a ``time.process_time`` accumulator before the diagram is
 built, runs one warm-up episode, then ``--serves`` episodes, and prints each system's CPU
 milliseconds per serve and share of the serve (cProfile's per-call overhead inflates Python-heavy
-code about twofold; this wrapper adds well under a microsecond per call). Used for
+code about twofold; this wrapper's two ``process_time`` calls are system calls of ~2 µs each on
+this machine's VM, so a system called ~1,400 times per serve reads ~3 ms high). Used for
 docs/performance.md; run it in two checkouts to compare them.
 """
 
