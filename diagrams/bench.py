@@ -27,7 +27,7 @@ import time
 import numpy as np
 from pydrake.systems.analysis import SimulatorConfig
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import Demultiplexer, TrajectorySource
+from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
@@ -140,7 +140,8 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
         result["cpu_ratio_to_replay_per_serve"] = project_cpu / replay_cpu
         result["replay_to_idle_per_serve"] = replay_wall / idle_wall
     if workers > 1:
-        result["parallel"] = _time_parallel(scenario, player, seeds, workers, project_wall)
+        result["parallel"] = _time_parallel(scenario, player, seeds, workers, project_wall,
+                                            project_cpu)
     try:
         from tt_drake.benchmarks import bench_momp_planning
     except ImportError:
@@ -159,9 +160,7 @@ def _replay_player(builder: DiagramBuilder, world, controller, scenario: Scenari
     rest = np.r_[AWAITING, np.zeros(14)]
     source = builder.AddNamedSystem("setpoint_replay", TrajectorySource(
         PiecewisePolynomial.FirstOrderHold([0.0, 1.0], np.column_stack([rest, rest]))))
-    split = builder.AddNamedSystem("setpoint_split", Demultiplexer([14, 7]))
-    builder.Connect(source.get_output_port(), split.get_input_port())
-    add_servo_hold(builder, split.get_output_port(0), split.get_output_port(1), controller)
+    add_servo_hold(builder, source.get_output_port(), controller)
     return []
 
 
@@ -190,28 +189,74 @@ def _time_replay(scenario: Scenario, player: str, seeds: list[int]
     return wall / len(seeds), durations, cpu / len(seeds)
 
 
+def _machine_jiffies() -> tuple[int, int] | None:
+    """(busy, steal) clock ticks of all CPUs so far (Linux ``/proc/stat``), None elsewhere."""
+    try:
+        with open("/proc/stat") as f:
+            fields = [int(v) for v in f.readline().split()[1:]]
+    except (OSError, ValueError):
+        return None
+    user, nice, system, _idle, _iowait, irq, softirq, steal = (fields + [0] * 8)[:8]
+    return user + nice + system + irq + softirq, steal
+
+
 def _time_parallel(scenario: Scenario, player: str, seeds: list[int], workers: int,
-                   serial_wall: float) -> dict:
+                   serial_wall: float, serial_cpu: float | None = None) -> dict:
     """The serves of ``seeds`` on ``workers`` processes as ``tt-drake serve --workers`` runs them
     (a learned player's artefacts loaded once, before the workers fork). ``start_up``: until the
     first result (the workers build their diagrams); ``wall_per_serve``: the steady rate after
-    it; the projection adds the two for :data:`PROJECTED_SERVES` serves."""
+    it; the projection adds the two for :data:`PROJECTED_SERVES` serves.
+
+    Where a speed-up below ``workers`` comes from (each a factor; ``speedup`` is ``workers`` times
+    ``serial_wall / serial_cpu`` divided by their product, up to the start-up's share):
+
+    - ``cpu_inflation``: the workers' CPU per episode over the single process's (contention for
+      the memory system, or a slower core when both are busy);
+    - ``core_share``: the workers' wall time per episode over their CPU time (> 1: a worker did
+      not have a core to itself, e.g. other processes ran);
+    - ``between_episodes``: ``workers`` x the steady wall time per serve over the workers' mean
+      episode wall time (time outside episodes: inter-process transfer, the last serves' tail);
+    - ``other_load``: CPUs' worth of busy time (Linux ``/proc/stat``) spent by everything else
+      during the run (the parent process included), and ``steal``: CPUs' worth taken by the
+      hypervisor."""
+    import os
+
     from tt_drake.diagrams.episodes import LEARNED_PLAYERS, load_learned_player
     from tt_drake.diagrams.parallel import run_episodes
 
     if player in LEARNED_PLAYERS:
         load_learned_player(scenario, primitives=player == "momp", keep=True)
+    jiffies0 = _machine_jiffies()
     t0 = time.perf_counter()
     first = None
-    for _ in run_episodes(scenario, player, seeds, workers):
+    episodes = []
+    for result in run_episodes(scenario, player, seeds, workers):
         first = time.perf_counter() if first is None else first
+        episodes.append(result)
     end = time.perf_counter()
+    jiffies1 = _machine_jiffies()
     start_up = first - t0
     per_serve = (end - first) / max(1, len(seeds) - 1)
-    return {"workers": workers, "serves": len(seeds), "total_wall": end - t0,
-            "start_up": start_up, "wall_per_serve": per_serve,
-            "speedup": serial_wall / per_serve,
-            "projected_wall_10000": start_up + PROJECTED_SERVES * per_serve}
+    out = {"workers": workers, "serves": len(seeds), "total_wall": end - t0,
+           "start_up": start_up, "wall_per_serve": per_serve,
+           "speedup": serial_wall / per_serve,
+           "projected_wall_10000": start_up + PROJECTED_SERVES * per_serve}
+    # Each worker's first episode (the first ``workers`` tasks) includes its warm-up.
+    steady = episodes[workers:] or episodes
+    episode_wall = float(np.mean([e.wall_time for e in steady]))
+    episode_cpu = float(np.mean([e.cpu_time for e in steady]))
+    out.update(episode_wall=episode_wall, episode_cpu=episode_cpu,
+               core_share=episode_wall / episode_cpu if episode_cpu > 0 else float("nan"),
+               between_episodes=workers * per_serve / episode_wall)
+    if serial_cpu:
+        out["cpu_inflation"] = episode_cpu / serial_cpu
+    if jiffies0 is not None and jiffies1 is not None:
+        hz = os.sysconf("SC_CLK_TCK")
+        busy = (jiffies1[0] - jiffies0[0]) / hz
+        ours = sum(e.cpu_time for e in episodes)
+        out["other_load"] = max(0.0, busy - ours) / (end - t0)
+        out["steal"] = (jiffies1[1] - jiffies0[1]) / hz / (end - t0)
+    return out
 
 
 def _time_episodes(diagram: ServeDiagram, seeds: list[int]
@@ -270,6 +315,16 @@ def format_bench(r: dict) -> str:
                      f"({p['speedup']:.2f}x one process) over {p['serves']} serves, start-up "
                      f"{p['start_up']:.1f} s; projected {PROJECTED_SERVES:,} serves: "
                      f"{p['projected_wall_10000'] / 60:.1f} min")
+        if "episode_cpu" in p:
+            parts = [f"episode {1e3 * p['episode_wall']:.1f} ms wall, "
+                     f"{1e3 * p['episode_cpu']:.1f} CPU ms in a worker"]
+            if "cpu_inflation" in p:
+                parts.append(f"CPU per episode {p['cpu_inflation']:.2f}x one process's")
+            parts.append(f"wall/CPU {p['core_share']:.2f}")
+            parts.append(f"between episodes {p['between_episodes']:.2f}")
+            if "other_load" in p:
+                parts.append(f"other load {p['other_load']:.2f} CPUs, steal {p['steal']:.2f}")
+            lines.append("    where the speed-up goes: " + "; ".join(parts))
     if "momp_planning" in r:
         lines.append(f"  MoMP planning: {r['momp_planning']}")
     return "\n".join(lines)

@@ -30,7 +30,7 @@ from tt_drake.seeds import episode_seed  # noqa: F401  (re-exported: runners imp
 from tt_drake.systems.aerodynamics import add_aerodynamics
 from tt_drake.systems.ball_launcher import BallLauncher
 from tt_drake.systems.referee import Referee
-from tt_drake.systems.wam import add_servo_hold
+from tt_drake.systems.wam import SERVO_HOLD, add_servo_hold, hold_first_setpoint
 from tt_drake.systems.world import World, add_world, make_simulator, set_ball_state
 from tt_drake.wam_params import SERVO_PERIOD
 
@@ -105,8 +105,7 @@ def _analytical_player(builder: DiagramBuilder, world: World, controller,
     if estimator.HasOutputPort("spin"):  # the oracle's (and the spin-aware EKF's)
         builder.Connect(estimator.GetOutputPort("spin"), player.GetInputPort("estimated_spin"))
     builder.Connect(estimator.GetOutputPort("status"), player.GetInputPort("estimator_status"))
-    add_servo_hold(builder, player.GetOutputPort("desired_state"),
-                   player.GetOutputPort("desired_acceleration"), controller)
+    add_servo_hold(builder, player.GetOutputPort("setpoint"), controller)
     return seeded
 
 
@@ -198,10 +197,12 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     # prediction: with ~0.5 s left at detection its stages leave no room for a preparation, so
     # it began the hitting stage on the first early prediction and stayed committed to it
     # (1,300 serves, seed 21: 97.9 % legal returns instead of 100 %, every miss a single plan).
-    # dt = 5 ms: the same crossing as 2 ms to 1e-8 m on a serve, at 2.5x fewer RK4 steps.
+    # dt = 10 ms: the crossing of a 0.25 ms step to 7e-9 m in position, 1.3e-9 s in time and
+    # 1.6e-8 m/s in velocity on 1,920 states along 60 default and 60 spin serves (the same
+    # serves missing the plane), at half the RK4 steps of 5 ms (docs/performance.md, third pass).
     # After the robot-side bounce the estimator knows the spin: the MoMP player's prediction
     # follows the ball from there (docs/spin.md). One stateless physical predictor serves both.
-    refresh = PhysicalPredictor(CompliantBounceBallModel(dt=5e-3)) if primitives else None
+    refresh = PhysicalPredictor(CompliantBounceBallModel(dt=1e-2)) if primitives else None
     early = refresh if scenario.learned.early_prediction else None
     # With the moving goal the refreshed predictions choose the hitting point as the teacher
     # does (the plane, else along the path: tt_drake.hitting_time).
@@ -232,8 +233,7 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
         builder.Connect(configuration.GetOutputPort(name), player.GetInputPort(name))
     builder.Connect(configuration.GetOutputPort("valid"),
                     player.GetInputPort("configuration_valid"))
-    add_servo_hold(builder, player.GetOutputPort("desired_state"),
-                   player.GetOutputPort("desired_acceleration"), controller)
+    add_servo_hold(builder, player.GetOutputPort("setpoint"), controller)
     return seeded
 
 
@@ -262,6 +262,9 @@ class EpisodeResult:
     arm: dict | None = None
     record: dict | None = field(default=None, repr=False)  # demonstration data (collect)
     stroke: dict | None = None  # the learned player's last plan (stroke_summary)
+    # CPU time of the process that ran the episode (process_time, s): with wall_time, how much
+    # of a core a worker got (tt-drake bench --workers; not written to the JSON).
+    cpu_time: float = 0.0
 
     def as_dict(self) -> dict:
         return {
@@ -350,13 +353,11 @@ class ServeDiagram:
             builder.Connect(self.controller.GetOutputPort("actuation"),
                             self.torque_logger.get_input_port())
         self.setpoint_logs = []
-        if log_setpoints and builder.HasSubsystemNamed("servo_hold_desired_state"):
-            for name, size in (("desired_state", 14), ("desired_acceleration", 7)):
-                log = builder.AddNamedSystem(f"setpoint_logger_{name}",
-                                             VectorLogSink(size, SERVO_PERIOD))
-                builder.Connect(builder.GetSubsystemByName(f"servo_hold_{name}").get_output_port(),
-                                log.get_input_port())
-                self.setpoint_logs.append(log)
+        if log_setpoints and builder.HasSubsystemNamed(SERVO_HOLD):
+            log = builder.AddNamedSystem("setpoint_logger", VectorLogSink(21, SERVO_PERIOD))
+            builder.Connect(builder.GetSubsystemByName(SERVO_HOLD).get_output_port(),
+                            log.get_input_port())
+            self.setpoint_logs.append(log)
         self.player = None
         for name in ("analytical_player", "momp_player"):
             if builder.HasSubsystemNamed(name):
@@ -431,11 +432,7 @@ class ServeDiagram:
 
         plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
         self.world.plant.SetPositions(plant_context, self.world.robot, np.asarray(AWAITING))
-        for name in ("servo_hold_desired_state", "servo_hold_desired_acceleration"):
-            if self.diagram.HasSubsystemNamed(name):
-                hold = self.diagram.GetSubsystemByName(name)
-                hold_context = hold.GetMyMutableContextFromRoot(self.context)
-                hold.SetVectorState(hold_context, hold.get_input_port().Eval(hold_context))
+        hold_first_setpoint(self.diagram, self.context)
 
     @property
     def library(self):
@@ -447,7 +444,7 @@ class ServeDiagram:
         own timeline afterwards). ``gamma``: the momp player's responsibilities for this episode
         (default: the loaded library's); ``weights``: its hitting primitives' weights ``(P, D,
         B)`` for this episode (PoWER's explored weights; default: the loaded library's)."""
-        wall = time.perf_counter()
+        wall, cpu = time.perf_counter(), time.process_time()
         self._set_gamma(gamma)
         self._set_weights(weights)
         self.context.SetTimeStateAndParametersFrom(self._initial)
@@ -495,7 +492,8 @@ class ServeDiagram:
             if stroke is not None and self.final_logger is not None:
                 stroke["early_prediction"] = self._hit_on_early_prediction()
         return EpisodeResult(seed, list(serve.launch_state), list(crossing), duration, outcome,
-                             time.perf_counter() - wall, path, arm, record, stroke)
+                             time.perf_counter() - wall, path, arm, record, stroke,
+                             time.process_time() - cpu)
 
     def extend(self, seconds: float) -> None:
         """Simulate the last episode up to ``seconds`` longer (never past its time limit, nor
@@ -591,11 +589,10 @@ class ServeDiagram:
         if not self.setpoint_logs:
             raise PlayerError("set-points are logged only with log_setpoints=True and a player "
                               "that drives the servo holds")
-        state, accel = (log.FindLog(self.context) for log in self.setpoint_logs)
+        log = self.setpoint_logs[0].FindLog(self.context)
         # A log entry at tick k is published before that tick's update: it holds the set-point
         # of tick k - 1.
-        held = np.vstack([state.data(), accel.data()]).T
-        return state.sample_times()[:-1].copy(), held[1:].copy()
+        return log.sample_times()[:-1].copy(), log.data().T[1:].copy()
 
 
 class SeedError(ValueError):

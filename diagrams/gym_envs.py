@@ -196,8 +196,8 @@ def _setpoint_player(builder, world, controller, scenario: Scenario, rate: float
                                     SetpointIncrementPlayer(rate, setpoint_lead=SETPOINT_LEAD,
                                                             offset=SERVO_PERIOD))
     builder.ExportInput(player.GetInputPort("increment"), "actions")
-    add_servo_hold(builder, player.GetOutputPort("desired_state"),
-                   player.GetOutputPort("desired_acceleration"), controller)
+    add_servo_hold(builder, (player.GetOutputPort("desired_state"),
+                             player.GetOutputPort("desired_acceleration")), controller)
     observations = builder.AddNamedSystem("observations", StepObservation())
     builder.Connect(world.plant.get_state_output_port(world.robot),
                     observations.get_input_port(0))

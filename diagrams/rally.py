@@ -232,6 +232,7 @@ class RallyDiagram:
         self._initial = self.context.Clone()
 
     def _set_awaiting_posture(self) -> None:
+        from tt_drake.systems.wam import hold_first_setpoint
         from tt_drake.wam_params import AWAITING
 
         plant = self.world.plant
@@ -239,11 +240,7 @@ class RallyDiagram:
         for robot in (self.world.robot, self.world.robot_b):
             plant.SetPositions(plant_context, robot, np.asarray(AWAITING))
         for side in self.sides:
-            for name in ("servo_hold_desired_state", "servo_hold_desired_acceleration"):
-                if side.HasSubsystemNamed(name):
-                    hold = side.GetSubsystemByName(name)
-                    hold_context = hold.GetMyMutableContextFromRoot(self.context)
-                    hold.SetVectorState(hold_context, hold.get_input_port().Eval(hold_context))
+            hold_first_setpoint(side, self.context)
 
     def run(self, seed: int, gamma=None) -> RallyResult:
         """Simulate one rally from ``seed`` (``gamma``: accepted for the parallel runner's

@@ -64,16 +64,18 @@ def serve_episodes(diagram: ServeDiagram, seeds, recording=None, progress: bool 
     results = []
     bar = tqdm(seeds, desc=f"serving ({label})", unit="serve", file=sys.stderr, total=total,
                disable=not progress)
+    returned = 0  # counted as the results come (summarize at each would be O(serves^2))
     for i, seed in enumerate(bar):
         result = diagram.run(seed)
         results.append(result)
+        returned += bool(result.outcome.returned)
         if recording is not None:
             from tt_drake.diagrams.recording import TAIL
 
             beliefs = diagram.beliefs
             diagram.extend(TAIL)  # after the result: the bounce after the decided landing
             recording.add(i, result, diagram.poses(), beliefs, result.stroke)
-        bar.set_postfix(returned=f"{summarize(results)['return_rate']:.0%}")
+        bar.set_postfix(returned=f"{returned / len(results):.0%}")
     return results
 
 
@@ -114,10 +116,12 @@ def _episodes(scenario, player, serves, seed, progress, workers) -> list:
     results = []
     bar = tqdm(total=serves, desc=f"serving ({player}, {workers} workers)", unit="serve",
                file=sys.stderr, disable=not progress)
+    returned = 0  # counted as the results come (summarize at each would be O(serves^2))
     for result in run_episodes(scenario, player, seeds, workers):
         results.append(result)
+        returned += bool(result.outcome.returned)
         bar.update()
-        bar.set_postfix(returned=f"{summarize(results)['return_rate']:.0%}")
+        bar.set_postfix(returned=f"{returned / len(results):.0%}")
     bar.close()
     return results
 

@@ -4,12 +4,13 @@ A player keeps, in its abstract state, an object with ``plan`` (a
 :class:`tt_drake.stages.StagePlan` or anything with ``evaluate(t)`` and ``stage_at(t)``) and
 ``stroke`` (its planned stroke, or None). This base declares the ports the serve diagram wires:
 ``desired_state`` (14: q, q_dot) and ``desired_acceleration`` (7) for the
-InverseDynamicsController, ``stage`` (1: index into :data:`tt_drake.stages.STAGES`), ``stroke``
-(abstract) and ``predicted_hit`` (4: where the stroke meets the ball, and a valid flag).
+InverseDynamicsController, ``setpoint`` (21: both at once, what the servo hold samples),
+``stage`` (1: index into :data:`tt_drake.stages.STAGES`), ``stroke`` (abstract) and
+``predicted_hit`` (4: where the stroke meets the ball, and a valid flag).
 
-The two desired-value ports share one plan evaluation per (plan, time), an O(1) polynomial
-evaluation (DESIGN.md). In the serve diagram they feed the controller through the servo's
-zero-order holds (:func:`tt_drake.systems.wam.add_servo_hold`), so they are evaluated once per
+The desired-value ports share one plan evaluation per (plan, time), an O(1) polynomial
+evaluation (DESIGN.md). In the serve diagram ``setpoint`` feeds the controller through the
+servo's zero-order hold (:func:`tt_drake.systems.wam.add_servo_hold`), so it is evaluated once per
 servo tick, at ``t + setpoint_lead`` (half a tick: the held value is the plan at the middle of
 its tick).
 """
@@ -27,6 +28,7 @@ class StagePlanPlayer(LeafSystem):
         self.setpoint_lead = float(setpoint_lead)
         self.DeclareVectorOutputPort("desired_state", BasicVector(14), self._calc_state)
         self.DeclareVectorOutputPort("desired_acceleration", BasicVector(7), self._calc_accel)
+        self.DeclareVectorOutputPort("setpoint", BasicVector(21), self._calc_setpoint)
         self.DeclareVectorOutputPort("stage", BasicVector(1), self._calc_stage)
         self.DeclareVectorOutputPort("predicted_hit", BasicVector(4), self._calc_predicted_hit)
         self.DeclareAbstractOutputPort("stroke", lambda: AbstractValue.Make(object()),
@@ -61,6 +63,13 @@ class StagePlanPlayer(LeafSystem):
 
     def _calc_accel(self, context, output):
         output.get_mutable_value()[:] = self._evaluate(context)[2]
+
+    def _calc_setpoint(self, context, output):
+        q, qd, qdd = self._evaluate(context)
+        out = output.get_mutable_value()
+        out[:7] = q
+        out[7:14] = qd
+        out[14:] = qdd
 
     def _calc_stage(self, context, output):
         stage = self.player_state(context).plan.stage_at(context.get_time())

@@ -244,12 +244,20 @@ def add_joint_faults(builder: DiagramBuilder, plant: MultibodyPlant,
     return handle
 
 
-def add_servo_hold(builder: DiagramBuilder, desired_state, desired_acceleration,
-                   controller: InverseDynamicsController | None,
-                   period: float = wp.SERVO_PERIOD) -> tuple:
-    """Feed a player's ``desired_state`` (14) and ``desired_acceleration`` (7) output ports to
-    ``controller`` (if not None) through zero-order holds sampled every servo ``period`` (ticks
-    at k * period); returns the two holds (state, acceleration).
+SERVO_HOLD = "servo_hold"  # the name of the servo's zero-order hold (in the player's diagram)
+
+
+def add_servo_hold(builder: DiagramBuilder, setpoint, controller: InverseDynamicsController | None,
+                   period: float = wp.SERVO_PERIOD):
+    """Feed a player's set-point to ``controller`` (if not None) through one zero-order hold
+    sampled every servo ``period`` (ticks at k * period), named :data:`SERVO_HOLD`; returns the
+    hold, whose output is the 21 held values (q, q_dot, q_ddot).
+
+    ``setpoint``: the player's 21-value output port (``setpoint``), or a pair of ports
+    (``desired_state`` (14), ``desired_acceleration`` (7)) that a C++ ``Multiplexer`` joins. A
+    C++ ``Demultiplexer`` splits the held values into the controller's ``desired_state`` and
+    ``desired_acceleration``, so the player is asked for its set-point once per tick through one
+    port (docs/performance.md, third pass).
 
     The WAM takes one set-point per servo tick (facts.md section 2), so the controller holds it
     in between. Holding also keeps a Python player out of the integrator's derivative evaluations
@@ -257,16 +265,28 @@ def add_servo_hold(builder: DiagramBuilder, desired_state, desired_acceleration,
     feeding a hold evaluates its plan half a period ahead (``setpoint_lead = period / 2``) so that
     the held value is the plan at the middle of its tick: no average lag.
     """
-    from pydrake.systems.primitives import ZeroOrderHold
+    from pydrake.systems.primitives import Demultiplexer, Multiplexer, ZeroOrderHold
 
-    holds = []
-    for name, port, size in (("desired_state", desired_state, 14),
-                             ("desired_acceleration", desired_acceleration, 7)):
-        hold = builder.AddNamedSystem(f"servo_hold_{name}", ZeroOrderHold(period, size))
-        builder.Connect(port, hold.get_input_port())
-        holds.append(hold)
+    if isinstance(setpoint, tuple):
+        join = builder.AddNamedSystem("servo_setpoint_join", Multiplexer([14, 7]))
+        builder.Connect(setpoint[0], join.get_input_port(0))
+        builder.Connect(setpoint[1], join.get_input_port(1))
+        setpoint = join.get_output_port()
+    hold = builder.AddNamedSystem(SERVO_HOLD, ZeroOrderHold(period, 21))
+    builder.Connect(setpoint, hold.get_input_port())
     if controller is not None:
-        builder.Connect(holds[0].get_output_port(), controller.get_input_port_desired_state())
-        builder.Connect(holds[1].get_output_port(),
+        split = builder.AddNamedSystem("servo_setpoint_split", Demultiplexer([14, 7]))
+        builder.Connect(hold.get_output_port(), split.get_input_port())
+        builder.Connect(split.get_output_port(0), controller.get_input_port_desired_state())
+        builder.Connect(split.get_output_port(1),
                         controller.get_input_port_desired_acceleration())
-    return tuple(holds)
+    return hold
+
+
+def hold_first_setpoint(diagram, root_context) -> None:
+    """Set the servo hold of ``diagram`` (if it has one, :func:`add_servo_hold`) to the player's
+    current set-point, so that nothing sees the hold's default zeros before its first tick."""
+    if diagram.HasSubsystemNamed(SERVO_HOLD):
+        hold = diagram.GetSubsystemByName(SERVO_HOLD)
+        hold_context = hold.GetMyMutableContextFromRoot(root_context)
+        hold.SetVectorState(hold_context, hold.get_input_port().Eval(hold_context))

@@ -207,12 +207,28 @@ class ContactAccuracy:
             shoulder = tuple(float(c) for c in x_wb.multiply(shoulder_in_base))
             self._rackets.append((frame.body(), frame.GetFixedPoseInBodyFrame().translation(),
                                   shoulder, REACH_BOUND))
-        self._succeeded = EventStatus.Succeeded
+        # The ball's position and velocity in the plant's state [q; v] (q: quaternion, then
+        # position; v: angular, then translational velocity).
+        self._p = ball.floating_positions_start() + 4
+        self._v = plant.num_positions() + ball.floating_velocities_start_in_v() + 3
+        # Per call (about 1,400 per serve) the monitor reads the plant's state through a view
+        # bound to the simulator's context at the first call and returns one kept status: no
+        # context or state wrapper is made per step (docs/performance.md, third pass). The
+        # integrator is asked for at every call: ApplySimulatorConfig (each episode) replaces it.
+        self._root = None
+        self._plant_context = None
+        self._state = None
+        self._succeeded = EventStatus.Succeeded()
 
     def near_contact(self, plant_context) -> bool:
         """Whether the ball may touch the table, net, floor or racket within the horizon."""
-        x = self._plant.GetPositionsAndVelocities(plant_context, self._ball).tolist()
-        px, py, pz, vx, vy, vz = x[4], x[5], x[6], x[10], x[11], x[12]
+        return self._near(plant_context.get_continuous_state_vector().get_value().tolist(),
+                          plant_context)
+
+    def _near(self, x: list, plant_context) -> bool:
+        """:meth:`near_contact` on the plant's state ``x`` ([q; v] as floats)."""
+        p, v = self._p, self._v
+        px, py, pz, vx, vy, vz = x[p], x[p + 1], x[p + 2], x[v], x[v + 1], x[v + 2]
         h = self._horizon
         fall = max(0.0, -vz) * h
         if (abs(px) < self._half[0] and abs(py) < self._half[1]
@@ -234,10 +250,15 @@ class ContactAccuracy:
         return False
 
     def __call__(self, root_context):
-        near = self.near_contact(self._plant.GetMyContextFromRoot(root_context))
+        if root_context is not self._root:
+            # Bound once per context: the simulator keeps its context, and holding the root's
+            # wrapper keeps pybind handing out this same object for it.
+            self._root = root_context
+            self._plant_context = self._plant.GetMyContextFromRoot(root_context)
+            self._state = self._plant_context.get_continuous_state_vector().get_value()
+        near = self._near(self._state.tolist(), self._plant_context)
         target = self._accuracy[0] if near else self._accuracy[1]
         integrator = self._simulator.get_mutable_integrator()
         if integrator.get_target_accuracy() != target:
             integrator.set_target_accuracy(target)
-        return self._succeeded()
-
+        return self._succeeded

@@ -5,7 +5,7 @@
 
 States: 60 default and 60 spin serves (100 rad/s per axis), each at launch and every 0.05 s of
 its model flight up to 0.75 s. Times (``time.process_time``, three passes) the learned player's
-physical prediction to the hitting plane (``PhysicalPredictor`` at the 5 ms step it uses) and the
+physical prediction to the hitting plane (``PhysicalPredictor`` at a 5 ms step) and the
 EKF's 60 Hz propagation with its Jacobian (``propagate_flight_jacobian``). ``--save`` writes every
 result; ``--compare`` (run in another checkout) prints the largest difference to a saved run.
 """

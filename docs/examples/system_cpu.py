@@ -3,10 +3,12 @@
     OPENBLAS_NUM_THREADS=1 python docs/examples/system_cpu.py momp [--serves 10] [--seed 3]
 
 Wraps the update and output functions of the Python systems (EKF, hitting-point predictor,
-players, servo set-points, referee) with a ``time.process_time`` accumulator before the diagram is
+players, servo set-points, referee, the ContactAccuracy monitor; those a checkout lacks are left
+out) with a ``time.process_time`` accumulator before the diagram is
 built, runs one warm-up episode, then ``--serves`` episodes, and prints each system's CPU
 milliseconds per serve and share of the serve (cProfile's per-call overhead inflates Python-heavy
-code about twofold; this wrapper adds well under a microsecond per call). Used for
+code about twofold; this wrapper's two ``process_time`` calls are system calls of ~2 µs each on
+this machine's VM, so a system called ~1,400 times per serve reads ~3 ms high). Used for
 docs/performance.md; run it in two checkouts to compare them.
 """
 
@@ -14,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import gc
 import time
 from collections import defaultdict
 from pathlib import Path
@@ -33,7 +36,10 @@ WRAPPED = [
      "_calc_state"),
     ("servo set-points (accel.)", "tt_drake.systems.stage_player", "StagePlanPlayer",
      "_calc_accel"),
+    ("servo set-point (one port)", "tt_drake.systems.stage_player", "StagePlanPlayer",
+     "_calc_setpoint"),
     ("referee", "tt_drake.systems.referee", "Referee", "_update"),
+    ("ContactAccuracy monitor", "tt_drake.systems.world", "ContactAccuracy", "__call__"),
 ]
 
 
@@ -49,7 +55,9 @@ def main() -> None:
     clock = time.process_time
     for label, module, cls, name in WRAPPED:
         owner = getattr(importlib.import_module(module), cls)
-        inner = getattr(owner, name)
+        inner = getattr(owner, name, None)
+        if inner is None:  # not in this checkout (another version of the code)
+            continue
 
         def timed(*a, _inner=inner, _label=label, **k):
             t0 = clock()
@@ -66,14 +74,25 @@ def main() -> None:
     diagram = ServeDiagram(scenario, args.player)
     diagram.run(episode_seed(args.seed, 0))
     spent.clear()
+    gc_started = []
+
+    def gc_clock(phase, info):  # the cyclic garbage collector's own time
+        if phase == "start":
+            gc_started.append(clock())
+        elif gc_started:
+            spent["garbage collector"] += clock() - gc_started.pop()
+
+    gc.callbacks.append(gc_clock)
     c0 = clock()
     for i in range(args.serves):
         diagram.run(episode_seed(args.seed, i))
     total = clock() - c0
+    gc.callbacks.remove(gc_clock)
     n = args.serves
     print(f"{args.player}: {1e3 * total / n:.1f} CPU ms per serve ({n} serves, seed {args.seed})")
     rows = [(label, spent[label]) for label, _, _, _ in WRAPPED if label in spent]
-    rows.append(("these systems together", sum(spent.values())))
+    rows.append(("these systems together", sum(cpu for _, cpu in rows)))
+    rows.append(("garbage collector", spent["garbage collector"]))
     for label, cpu in rows:
         print(f"  {label:28s} {1e3 * cpu / n:6.1f} ms {100 * cpu / total:5.1f} %")
 

@@ -48,9 +48,14 @@ def test_parallel_timing_runs_every_serve_and_projects_from_the_steady_rate():
     from tt_drake.diagrams.bench import PROJECTED_SERVES, _time_parallel
 
     seeds = [episode_seed(2, i) for i in range(4)]
-    p = _time_parallel(load_scenario(), "idle", seeds, 2, serial_wall=1.0)
+    p = _time_parallel(load_scenario(), "idle", seeds, 2, serial_wall=1.0, serial_cpu=0.5)
     assert p["serves"] == 4 and p["workers"] == 2
     assert 0 < p["start_up"] < p["total_wall"]
     assert p["projected_wall_10000"] == pytest.approx(
         p["start_up"] + PROJECTED_SERVES * p["wall_per_serve"])
     assert p["speedup"] == pytest.approx(1.0 / p["wall_per_serve"])
+    # The workers' episodes report their CPU time: one thread's work, so no more than its wall.
+    assert 0 < p["episode_cpu"] <= p["episode_wall"]
+    assert p["core_share"] == pytest.approx(p["episode_wall"] / p["episode_cpu"])
+    assert p["cpu_inflation"] == pytest.approx(p["episode_cpu"] / 0.5)
+    assert p["between_episodes"] == pytest.approx(2 * p["wall_per_serve"] / p["episode_wall"])

@@ -6,6 +6,7 @@ import pytest
 from pydrake.common.value import AbstractValue
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import Demultiplexer
 
 from tt_drake import wam_params as wp
 from tt_drake.stages import HITTING, Quintic, StagePlan
@@ -40,10 +41,11 @@ class FixedPlanPlayer(StagePlanPlayer):
 def held_setpoints(lead, times):
     builder = DiagramBuilder()
     player = builder.AddSystem(FixedPlanPlayer(lead))
-    state_hold, accel_hold = add_servo_hold(builder, player.GetOutputPort("desired_state"),
-                                            player.GetOutputPort("desired_acceleration"), None)
-    builder.ExportOutput(state_hold.get_output_port(), "q")
-    builder.ExportOutput(accel_hold.get_output_port(), "a")
+    hold = add_servo_hold(builder, player.GetOutputPort("setpoint"), None)
+    split = builder.AddSystem(Demultiplexer([14, 7]))
+    builder.Connect(hold.get_output_port(), split.get_input_port())
+    builder.ExportOutput(split.get_output_port(0), "q")
+    builder.ExportOutput(split.get_output_port(1), "a")
     diagram = builder.Build()
     simulator = Simulator(diagram)
     context = simulator.get_mutable_context()

@@ -90,6 +90,38 @@ def test_low_rate_uses_substeps_and_stays_accurate():
     assert np.abs(no_sub.q - fine.q[::40]).max() > 100 * np.abs(coarse.q - fine.q[::40]).max()
 
 
+def test_sensitivity_map_is_rk4_stepped_one_fine_step_at_a_time():
+    """The cached map (all fine steps composed at once) is classical RK4 on Eq. 4 in normalised
+    time, stepped one fine step after the other, for any start state and inputs."""
+    rng = np.random.default_rng(4)
+    x = np.r_[0.3, -0.8, 1.1, 0.7, rng.normal(0, 300, DMP.n_basis)]  # (y0, v0, g_m0, tau g_dot, w)
+    r = DMP.alpha_z / DMP.alpha_h
+
+    def accel(s, y, v):  # dv/ds of Eq. 4 with these inputs
+        z = np.exp(-DMP.alpha_z * s)
+        g_m = x[2] + r * s * x[3]
+        return ((1 - z) * DMP.alpha_y * (DMP.beta_y * (g_m - y) + x[3] - v)
+                + DMP.features(z) @ x[4:])
+
+    for n_steps in (7, 37, 250):
+        m = int(np.ceil(DMP.min_steps / n_steps))
+        h = 1.0 / (n_steps * m)
+        y, v = x[0], x[1]
+        expected = [(y, v, accel(0.0, y, v))]
+        for j in range(n_steps * m):
+            s = j * h
+            k1 = (v, accel(s, y, v))
+            k2 = (v + 0.5 * h * k1[1], accel(s + 0.5 * h, y + 0.5 * h * k1[0], v + 0.5 * h * k1[1]))
+            k3 = (v + 0.5 * h * k2[1], accel(s + 0.5 * h, y + 0.5 * h * k2[0], v + 0.5 * h * k2[1]))
+            k4 = (v + h * k3[1], accel(s + h, y + h * k3[0], v + h * k3[1]))
+            y = y + h / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
+            v = v + h / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
+            if (j + 1) % m == 0:
+                expected.append((y, v, accel((j + 1) * h, y, v)))
+        np.testing.assert_allclose(DMP.sensitivity(n_steps) @ x, np.array(expected),
+                                   rtol=1e-11, atol=1e-9)
+
+
 def test_grid_ends_exactly_at_tau():
     assert n_steps_for(0.5, 500.0) == 250
     assert n_steps_for(0.4999, 500.0) == 250
