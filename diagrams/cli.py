@@ -366,7 +366,7 @@ def _use_shipped_artefacts(player: str | None, scenario, artefact_set: str | Non
     ones in tt_drake/models/learned/ (what ``make demo`` shows), with the set's moving goal and,
     unless ``--configuration`` was given, its hitting configuration. A set is the whole player:
     naming files too is refused (CliError, one line)."""
-    from tt_drake.models import ARTEFACT_SETS, shipped_artefact
+    from tt_drake.models import shipped_artefact, use_artefact_set
 
     learned = scenario.learned
     named = learned.library or learned.crkr or learned.predictor
@@ -376,11 +376,7 @@ def _use_shipped_artefacts(player: str | None, scenario, artefact_set: str | Non
     if player not in ("momp", "crkr") or named:
         return
     chosen = artefact_set or "paper"
-    learned.library, learned.crkr, learned.predictor = (
-        str(shipped_artefact(kind, chosen)) for kind in ("library", "crkr", "predictor"))
-    learned.moving_goal = learned.moving_goal or ARTEFACT_SETS[chosen].moving_goal
-    if not configuration_given:
-        learned.configuration = ARTEFACT_SETS[chosen].configuration
+    use_artefact_set(learned, chosen, configuration_given)
     print(f"tt-drake: the {player} player uses the shipped artefacts in "
           f"{shipped_artefact('library', chosen).parent}", file=sys.stderr)
 

@@ -34,3 +34,16 @@ def shipped_artefact(kind: str, artefact_set: str = "paper") -> Path:
     """Path of the shipped ``library``, ``crkr`` or ``predictor`` artefact of a set."""
     folder = ARTEFACT_SETS[artefact_set].folder
     return Path(str(resources.files(__name__).joinpath(folder, SHIPPED_ARTEFACTS[kind])))
+
+
+def use_artefact_set(learned, artefact_set: str = "paper", configuration_given: bool = False
+                     ) -> None:
+    """Point a scenario's ``learned`` settings (``LearnedPlayerConfig``) at a shipped set: its
+    three artefacts, its moving goal (kept on if already on) and, unless the caller chose one,
+    its hitting configuration."""
+    chosen = ARTEFACT_SETS[artefact_set]
+    learned.library, learned.crkr, learned.predictor = (
+        str(shipped_artefact(kind, artefact_set)) for kind in SHIPPED_ARTEFACTS)
+    learned.moving_goal = learned.moving_goal or chosen.moving_goal
+    if not configuration_given:
+        learned.configuration = chosen.configuration

@@ -13,11 +13,9 @@ from __future__ import annotations
 
 import argparse
 import time
-from pathlib import Path
 
 from tt_drake import dmp
 
-LEARNED = Path(__file__).resolve().parents[2] / "models" / "learned"
 STEPS = (26, 74, 150, 200, 300, 400, 629)
 
 
@@ -37,6 +35,7 @@ def main() -> None:
         return
     from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
     from tt_drake.diagrams.scenario import load_scenario
+    from tt_drake.models import use_artefact_set
 
     dmp._CACHED_MAPS = args.cache
     asked, computed = [0], [0]
@@ -53,9 +52,7 @@ def main() -> None:
     dmp.HittingDMP.sensitivity = counted_sensitivity
     dmp.HittingDMP._integrate_sensitivity = counted_integrate
     scenario = load_scenario()
-    scenario.learned.library = str(LEARNED / "library.npz")
-    scenario.learned.crkr = str(LEARNED / "crkr.npz")
-    scenario.learned.predictor = str(LEARNED / "predictor.npz")
+    use_artefact_set(scenario.learned)  # the shipped paper set, as `tt-drake serve` plays it
     diagram = ServeDiagram(scenario, "momp")
     first, last_asked, last_computed = 1, 0, 0
     for i in range(args.serves):

@@ -21,16 +21,15 @@ from __future__ import annotations
 
 import argparse
 from collections import defaultdict
-from pathlib import Path
 
 import numpy as np
 from pydrake.systems.framework import EventStatus
 
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
+from tt_drake.models import use_artefact_set
 from tt_drake.systems.world import ContactAccuracy
 
-LEARNED = Path(__file__).resolve().parents[2] / "models" / "learned"
 PHASES = ("flight in", "table", "racket", "flight out")
 
 
@@ -45,9 +44,7 @@ def main() -> None:
                     help="> 0: the spin distribution with this spin per axis (rad/s)")
     args = ap.parse_args()
     scenario = load_scenario()
-    scenario.learned.library = str(LEARNED / "library.npz")
-    scenario.learned.crkr = str(LEARNED / "crkr.npz")
-    scenario.learned.predictor = str(LEARNED / "predictor.npz")
+    use_artefact_set(scenario.learned)  # the shipped paper set, as `tt-drake serve` plays it
     if args.accuracy is not None:
         scenario.world.simulator.accuracy = args.accuracy
     if args.flight_accuracy is not None:

@@ -14,12 +14,10 @@ import argparse
 import cProfile
 import pstats
 import time
-from pathlib import Path
 
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
-
-LEARNED = Path(__file__).resolve().parents[2] / "models" / "learned"
+from tt_drake.models import use_artefact_set
 
 # (label, file suffix, function name): the parts docs/performance.md tabulates.
 PARTS = [
@@ -42,9 +40,7 @@ def main() -> None:
     ap.add_argument("--top", type=int, default=25)
     args = ap.parse_args()
     scenario = load_scenario()
-    scenario.learned.library = str(LEARNED / "library.npz")
-    scenario.learned.crkr = str(LEARNED / "crkr.npz")
-    scenario.learned.predictor = str(LEARNED / "predictor.npz")
+    use_artefact_set(scenario.learned)  # the shipped paper set, as `tt-drake serve` plays it
     diagram = ServeDiagram(scenario, args.player)
     diagram.run(episode_seed(args.seed, 0))
     prof = cProfile.Profile(time.process_time)

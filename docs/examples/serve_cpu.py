@@ -12,12 +12,10 @@ from __future__ import annotations
 
 import argparse
 import time
-from pathlib import Path
 
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
-
-LEARNED = Path(__file__).resolve().parents[2] / "models" / "learned"
+from tt_drake.models import use_artefact_set
 
 
 def main() -> None:
@@ -27,9 +25,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=3)
     args = ap.parse_args()
     scenario = load_scenario()
-    scenario.learned.library = str(LEARNED / "library.npz")
-    scenario.learned.crkr = str(LEARNED / "crkr.npz")
-    scenario.learned.predictor = str(LEARNED / "predictor.npz")
+    use_artefact_set(scenario.learned)  # the shipped paper set, as `tt-drake serve` plays it
     c0 = time.process_time()
     diagram = ServeDiagram(scenario, args.player)
     build = time.process_time() - c0

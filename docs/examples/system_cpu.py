@@ -19,12 +19,10 @@ import functools
 import gc
 import time
 from collections import defaultdict
-from pathlib import Path
 
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
-
-LEARNED = Path(__file__).resolve().parents[2] / "models" / "learned"
+from tt_drake.models import use_artefact_set
 
 # (label, module, class, method)
 WRAPPED = [
@@ -68,9 +66,7 @@ def main() -> None:
 
         setattr(owner, name, functools.wraps(inner)(timed))
     scenario = load_scenario()
-    scenario.learned.library = str(LEARNED / "library.npz")
-    scenario.learned.crkr = str(LEARNED / "crkr.npz")
-    scenario.learned.predictor = str(LEARNED / "predictor.npz")
+    use_artefact_set(scenario.learned)  # the shipped paper set, as `tt-drake serve` plays it
     diagram = ServeDiagram(scenario, args.player)
     diagram.run(episode_seed(args.seed, 0))
     spent.clear()
