@@ -445,8 +445,13 @@ class ServeDiagram:
         (default: the loaded library's); ``weights``: its hitting primitives' weights ``(P, D,
         B)`` for this episode (PoWER's explored weights; default: the loaded library's)."""
         wall, cpu = time.perf_counter(), time.process_time()
-        self._set_gamma(gamma)
-        self._set_weights(weights)
+        self._set_library_array("gamma", gamma, lambda g: np.all(g >= 0) and np.any(g > 0),
+                                "responsibilities gamma",
+                                lambda g0: f"gamma must be {g0.shape[0]} non-negative values, "
+                                           "not all zero")
+        self._set_library_array("weights", weights, lambda w: np.all(np.isfinite(w)),
+                                "primitive weights",
+                                lambda w0: f"primitive weights must be {w0.shape} finite values")
         self.context.SetTimeStateAndParametersFrom(self._initial)
         # A fresh integrator: its step-size history would make an episode depend on the ones
         # before it (a landing point moved 7e-7 m) and on a recording's extension of them.
@@ -517,20 +522,6 @@ class ServeDiagram:
             times, ball, arm = times[:k], ball[:k], arm[:k]
         return times, ball, arm
 
-    def _set_gamma(self, gamma) -> None:
-        library = self.library
-        if library is None:
-            if gamma is not None:
-                raise PlayerError("responsibilities gamma apply to the momp player only")
-            return
-        if not hasattr(self, "_gamma0"):
-            self._gamma0 = library.gamma.copy()
-        g = self._gamma0 if gamma is None else np.asarray(gamma, dtype=float)
-        if g.shape != self._gamma0.shape or np.any(g < 0) or not np.any(g > 0):
-            raise PlayerError(f"gamma must be {self._gamma0.shape[0]} non-negative values, not "
-                              "all zero")
-        library.gamma = g.copy()
-
     def _hit_on_early_prediction(self) -> bool:
         """Whether the learned player's hitting stage began before the predictor's final (GPR)
         prediction was out, i.e. on an early physical-model one (to the referee's period)."""
@@ -544,18 +535,21 @@ class ServeDiagram:
         before = log.sample_times() <= start + 1e-9
         return not bool(np.any(log.data()[0, before] > 0.5))
 
-    def _set_weights(self, weights) -> None:
+    def _set_library_array(self, name: str, value, valid, what: str, invalid) -> None:
+        """Set the momp library's array ``name`` (``gamma`` or ``weights``) for one episode:
+        ``None`` restores the library's own (kept at the first call); else ``value`` must have
+        its shape and pass ``valid`` (else PlayerError ``invalid(original)``)."""
         library = self.library
         if library is None:
-            if weights is not None:
-                raise PlayerError("primitive weights apply to the momp player only")
+            if value is not None:
+                raise PlayerError(f"{what} apply to the momp player only")
             return
-        if not hasattr(self, "_weights0"):
-            self._weights0 = library.weights.copy()
-        w = self._weights0 if weights is None else np.asarray(weights, dtype=float)
-        if w.shape != self._weights0.shape or not np.all(np.isfinite(w)):
-            raise PlayerError(f"primitive weights must be {self._weights0.shape} finite values")
-        library.weights = w.copy()
+        originals = self.__dict__.setdefault("_library_arrays0", {})
+        original = originals.setdefault(name, getattr(library, name).copy())
+        a = original if value is None else np.asarray(value, dtype=float)
+        if a.shape != original.shape or not valid(a):
+            raise PlayerError(invalid(original))
+        setattr(library, name, a.copy())
 
     def _beliefs(self) -> dict:
         """Estimated ball path and predicted hitting points (with their times) of the episode."""
