@@ -81,8 +81,7 @@ class Quintic:
         """(t, q, q_dot, q_ddot) sampled over the segment at ``rate`` Hz, both ends included."""
         n = max(2, int(round(self.duration * rate)) + 1)
         times = np.linspace(self.t0, self.t_end, n)
-        q, v, a = zip(*(self.evaluate(t) for t in times), strict=True)
-        return times, np.array(q), np.array(v), np.array(a)
+        return (times, *self.evaluate_many(times))
 
     def evaluate_many(self, times) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`evaluate` at every time of ``times`` (K,) at once: (q, q_dot, q_ddot), each
