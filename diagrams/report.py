@@ -277,14 +277,14 @@ def _plots(run, results: dict) -> list[str]:
              {"label": "share pruned", "x": curve[:, 0], "y": curve[:, 4] / power["primitives"]}],
             xlabel="rollouts", ylabel="per batch", title="Algorithm 3 with PoWER (Eq. 9)",
             paper={"final success": 0.94} if paper else None))
-    comparison = learning_comparison(results)
-    if comparison:
+    groups = {f"{label} serves ({c['serves']}, seed {c['seed']})":
+              {ax["what"]: (ax["before"], ax["after"]) for ax in c["axes"]
+               if ax["kind"] != "count" and ax["before"] is not None and ax["after"] is not None}
+              for label, c in learning_comparison(results).items()}
+    groups = {title: axes for title, axes in groups.items() if axes}
+    if groups:
         written.append(rp.plot_before_after(
-            folder / "before_after_learning.png",
-            {f"{label} serves ({c['serves']}, seed {c['seed']})":
-             {ax["what"]: (ax["before"], ax["after"]) for ax in c["axes"]
-              if ax["kind"] != "count" and ax["before"] is not None and ax["after"] is not None}
-             for label, c in comparison.items()},
+            folder / "before_after_learning.png", groups,
             labels=("gamma = 1 (before learning)", "learned player")))
     crkr = results.get("crkr")
     if crkr:

@@ -228,3 +228,22 @@ def test_before_after_plot(tmp_path):
     with pytest.raises(ValueError, match="before, after"):
         plot_before_after(tmp_path / "bad.png", {"spin": {"legal return": (0.5, 0.7, 0.9)}})
     assert not (tmp_path / "bad.png").exists()
+
+
+def test_a_hard_run_folder_writes_the_comparison_and_its_plot(tmp_path):
+    from tt_drake.diagrams.report import write_report
+
+    run = rp.Run(tmp_path / "hard", rp.hard_quick_config(), quick=True, workers=1,
+                 progress=False, protocol="hard")
+    before = _evaluation(0.5, 0.1, 0.40, 4, 2)
+    after = {**_evaluation(0.7, 0.3, 0.56, 6, 1), "target_of_ceiling": None}
+    for stage, result in (("gamma1", {"evaluation": {"real-test": before}}),
+                          ("final", {"real-test": after, "library": "power/library_power.npz"})):
+        (run.folder(stage) / "result.json").write_text(json.dumps(result))
+    report = write_report(run)
+    assert "plots/before_after_learning.png" in report["plots"]
+    assert (run.root / "plots" / "before_after_learning.png").exists()
+    axes = {a["key"]: a for a in report["learning"]["real-test"]["axes"]}
+    assert axes["target_of_ceiling"]["change"] is None  # not recorded: no figure, no change
+    text = (run.root / "report.md").read_text()
+    assert "| on target, per oracle teacher's on-target return | 25.0 % | - | - |" in text
