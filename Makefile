@@ -6,7 +6,8 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= out
 
-.PHONY: install test test-slow test-ray test-wheel lint demo bench reproduce reproduce-quick clean
+.PHONY: install test test-slow test-ray test-wheel lint demo bench reproduce reproduce-quick \
+        reproduce-quick-hard clean
 
 # setuptools notes every editable install of a package folder at the project's root ("Editable
 # installation ... be careful with folders in your working directory"); that note alone is
@@ -55,6 +56,11 @@ reproduce: $(STAMP)
 
 reproduce-quick: $(STAMP)
 	$(BIN)/tt-drake reproduce --quick --out $(OUT)/reproduce-quick
+
+# Every stage of the hard profile (spin, real and rally serves; docs/reproducing.md) on few
+# serves; CI runs it after reproduce-quick.
+reproduce-quick-hard: $(STAMP)
+	$(BIN)/tt-drake reproduce --quick --protocol hard --out $(OUT)/reproduce-quick-hard
 
 bench: $(STAMP)
 	mkdir -p $(OUT)

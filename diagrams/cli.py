@@ -559,14 +559,14 @@ def _train(args) -> None:
 
 
 def _reproduce(args) -> None:
-    from tt_drake.diagrams.reproduce import SIZES, reproduce
+    from tt_drake.diagrams.reproduce import reproduce
 
     if args.quick and args.sizes not in (None, "quick"):
         raise CliError(f"--quick and --sizes {args.sizes} disagree; give one")
     quick = args.quick or args.sizes == "quick"
     report = reproduce(args.out, quick, args.workers, args.executor,
                        progress=not args.quiet, protocol=args.protocol,
-                       config=SIZES[args.sizes]() if args.sizes else None, until=args.until)
+                       sizes=args.sizes, until=args.until)
     for row in report["table"]:
         print(f"{row['experiment']}: paper {row['paper']}, ours {row['ours']}")
     print(f"wrote {args.out}/report.md and {args.out}/report.json")

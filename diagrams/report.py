@@ -69,6 +69,17 @@ def _momp(r: dict) -> str:
     return text
 
 
+def _player(result: dict) -> str:
+    """The hard profile's momp player settings a stage result records, as ``serve`` options
+    (the moving goal is a scenario setting: ``learned.moving_goal``)."""
+    text = ""
+    if result.get("configuration"):
+        text += f" --configuration {result['configuration']}"
+    if result.get("moving_goal"):
+        text += " (scenario learned.moving_goal: true)"
+    return text
+
+
 def _row(key: str, ours: str, value, serves, command: str, label: str = "") -> dict:
     what, paper_text, paper_value = PAPER[key]
     what = what.format(label=label)
@@ -112,9 +123,9 @@ def table_rows(results: dict) -> list[dict]:
     if g1 and "evaluation" in g1:  # hard protocol: on the evaluation serves
         for label, r in g1["evaluation"].items():
             rows.append(_row("hard_gamma1", _momp(r) + _ceiling(r), r["momp_return_rate"],
-                             r["serves"], f"--player momp --library DIR/library/library.npz "
-                                          f"--distribution {r['distribution']} --seed "
-                                          f"{r['seed']}", label=label))
+                             r["serves"], f"--player momp --library DIR/library/library.npz"
+                                          f"{_player(g1)} --distribution {r['distribution']} "
+                                          f"--seed {r['seed']}", label=label))
     elif g1:
         for key, conf in (("gamma1", "crkr"), ("gamma1_ik", "analytical")):
             rows.append(_row(key, _momp(g1[conf]), g1[conf]["momp_return_rate"],
@@ -123,7 +134,12 @@ def table_rows(results: dict) -> list[dict]:
     resp = results.get("responsibility")
     if resp:
         earlier = resp["pruned_earlier_return"]
-        rows.append(_row("pruned", f"{_pct(resp['pruned_share'])} ({_pct(earlier)})",
+        if resp.get("pruned_earlier_reward") is not None:
+            earlier = (f"{_pct(earlier)}; their mean reward {resp['pruned_earlier_reward']:.3f}, "
+                       f"the kept ones' {resp['kept_earlier_reward']:.3f}")
+        else:
+            earlier = _pct(earlier)
+        rows.append(_row("pruned", f"{_pct(resp['pruned_share'])} ({earlier})",
                          resp["pruned_share"], resp["rollouts"],
                          f"{resp['rollouts']} rollouts in batches of {resp['batch']}, --seed "
                          f"{resp['seed']}+batch{split}"))
@@ -146,7 +162,8 @@ def table_rows(results: dict) -> list[dict]:
             if "distribution" in r:  # hard protocol
                 rows.append(_row("hard_final", _momp(r) + _ceiling(r) + note,
                                  r["momp_return_rate"], r["serves"],
-                                 f"--player momp --library DIR/{library} --distribution "
+                                 f"--player momp --library DIR/{library}"
+                                 f"{_player(results.get('final') or {})} --distribution "
                                  f"{r['distribution']} --seed {r['seed']}", label=key))
                 continue
             if key not in ("default", "real"):
@@ -158,6 +175,68 @@ def table_rows(results: dict) -> list[dict]:
     return rows
 
 
+#: The axes of the hard profile's before/after comparison: (key in a gamma1 / final result,
+#: what it is, "rate" (drawn in percent) or "reward" or "count").
+LEARNING_AXES = (
+    ("momp_return_rate", "legal return by the primitives", "rate"),
+    ("return_rate_of_returnable", "legal return, of the oracle teacher's returnable serves",
+     "rate"),
+    ("momp_target_rate", "on target by the primitives", "rate"),
+    ("target_of_ceiling", "on target, per oracle teacher's on-target return", "rate"),
+    ("momp_mean_reward", "mean reward (0 for a fallback stroke)", "reward"),
+    ("reward_of_ceiling", "mean reward, per oracle teacher's mean reward", "rate"),
+    ("fallback_strokes", "fallback strokes (the teacher's quintics)", "count"),
+    ("early_strokes", "strokes begun on an early physical-model prediction", "count"),
+)
+
+
+def learning_comparison(results: dict) -> dict:
+    """The hard profile's before (``gamma1``, gamma = 1) and after (``final``) figures on the same
+    evaluation serves, per set and axis (:data:`LEARNING_AXES`): ``{label: {"serves", "seed",
+    "oracle": {...}, "axes": [{"key", "what", "kind", "before", "after", "change"}]}}``; empty
+    unless both stages have finished on a protocol with evaluation sets."""
+    before = (results.get("gamma1") or {}).get("evaluation")
+    after = results.get("final")
+    if not before or not after:
+        return {}
+    out = {}
+    for label, b in before.items():
+        a = after.get(label)
+        if not isinstance(a, dict):
+            continue
+        axes = []
+        for key, what, kind in LEARNING_AXES:
+            x, y = b.get(key), a.get(key)
+            axes.append({"key": key, "what": what, "kind": kind, "before": x, "after": y,
+                         "change": None if x is None or y is None else y - x})
+        out[label] = {"serves": a["serves"], "seed": a["seed"],
+                      "distribution": a.get("distribution"),
+                      "oracle": {k: a.get(k) for k in ("returnable_serves", "returnable_rate",
+                                                       "oracle_target_rate",
+                                                       "oracle_mean_reward")},
+                      "axes": axes}
+    return out
+
+
+def pruning_summary(results: dict) -> dict | None:
+    """Primitives pruned by responsibility learning and then by Algorithm 3 with PoWER, of the
+    library's, with what they did before: legal returns carried by them and their credited mean
+    reward, gating-weighted (the kept primitives' next to them)."""
+    resp = results.get("responsibility")
+    if not resp:
+        return None
+    keys = ("pruned", "pruned_earlier_return", "pruned_earlier_reward", "kept_earlier_return",
+            "kept_earlier_reward")
+    out = {"primitives": resp["primitives"],
+           "responsibility": {k: resp.get(k) for k in keys}}
+    power = results.get("power")
+    if power:
+        out["power"] = {k: power.get(k) for k in keys}
+    total = resp["pruned"] + (power["pruned"] if power else 0)
+    out["pruned"], out["pruned_share"] = total, total / resp["primitives"]
+    return out
+
+
 def _plots(run, results: dict) -> list[str]:
     from tt_drake.diagrams import report_plots as rp
     from tt_drake.hitting_point import OUTPUT_NAMES, OUTPUT_UNITS
@@ -166,16 +245,21 @@ def _plots(run, results: dict) -> list[str]:
     folder = run.root / "plots"
     folder.mkdir(exist_ok=True)
     written = []
+    paper = run.protocol.name == "paper"  # the paper's figures are reference lines there only
     resp = results.get("responsibility")
     if resp and resp["curve"]:
-        curve = np.array(resp["curve"])
+        curve = np.array(resp["curve"], dtype=float)
+        series = [{"label": "legal return by the primitives", "x": curve[:, 0], "y": curve[:, 1]},
+                  {"label": "on target (fallbacks counted)", "x": curve[:, 0], "y": curve[:, 2]},
+                  {"label": "share pruned", "x": curve[:, 0],
+                   "y": curve[:, 3] / resp["primitives"]}]
+        if curve.shape[1] > 4 and np.all(np.isfinite(curve[:, 4])):
+            series.append({"label": "mean reward (0 for a fallback)", "x": curve[:, 0],
+                           "y": curve[:, 4]})
         written.append(rp.plot_learning_curve(
-            folder / "responsibility_learning.png",
-            [{"label": "legal return by the primitives", "x": curve[:, 0], "y": curve[:, 1]},
-             {"label": "on target (fallbacks counted)", "x": curve[:, 0], "y": curve[:, 2]},
-             {"label": "share pruned", "x": curve[:, 0], "y": curve[:, 3] / resp["primitives"]}],
+            folder / "responsibility_learning.png", series,
             xlabel="rollouts", ylabel="per batch", title="Responsibility learning (Algorithm 3)",
-            paper={"final success": 0.94, "gamma = 1": 0.67}))
+            paper={"final success": 0.94, "gamma = 1": 0.67} if paper else None))
         from tt_drake.artefacts import load_artefact
 
         state, _ = load_artefact(run.root / "responsibility" / "state.npz",
@@ -192,7 +276,16 @@ def _plots(run, results: dict) -> list[str]:
              {"label": "legal return by the primitives", "x": curve[:, 0], "y": curve[:, 2]},
              {"label": "share pruned", "x": curve[:, 0], "y": curve[:, 4] / power["primitives"]}],
             xlabel="rollouts", ylabel="per batch", title="Algorithm 3 with PoWER (Eq. 9)",
-            paper={"final success": 0.94}))
+            paper={"final success": 0.94} if paper else None))
+    groups = {f"{label} serves ({c['serves']}, seed {c['seed']})":
+              {ax["what"]: (ax["before"], ax["after"]) for ax in c["axes"]
+               if ax["kind"] != "count" and ax["before"] is not None and ax["after"] is not None}
+              for label, c in learning_comparison(results).items()}
+    groups = {title: axes for title, axes in groups.items() if axes}
+    if groups:
+        written.append(rp.plot_before_after(
+            folder / "before_after_learning.png", groups,
+            labels=("gamma = 1 (before learning)", "learned player")))
     crkr = results.get("crkr")
     if crkr:
         its = crkr["iterations"]
@@ -269,6 +362,7 @@ def write_report(run) -> dict:
     report = {"quick": run.quick, "protocol": run.protocol.name,
               "config": run.config.to_dict(), "workers": run.workers,
               "executor": run.executor, "table": rows, "stages": results, "plots": plots,
+              "learning": learning_comparison(results), "pruning": pruning_summary(results),
               "wall_seconds": round(sum(r.get("wall_seconds", 0.0) for r in results.values()),
                                     1)}
     write_json_atomic(run.root / "report.json", report)
@@ -289,10 +383,94 @@ def format_markdown(report: dict) -> str:
         ours = r["ours"] + (f" ({r['shortfall']})" if "shortfall" in r else "")
         lines.append(f"| {r['experiment']} | {r['paper']} | {ours} | {r['serves']} | "
                      f"`{r['command']}` |")
+    if protocol != "paper":
+        lines += _learning_markdown(report)
     lines += ["", "Stage times: " + ", ".join(f"{k} {v.get('wall_seconds', 0) / 60:.1f} min"
                                              for k, v in report["stages"].items()), ""]
     lines += [f"![{Path(p).stem}]({p})" for p in report["plots"]]
     return "\n".join(lines) + "\n"
+
+
+def _figure(value, kind: str) -> str:
+    if value is None:
+        return "-"
+    if kind == "rate":
+        return _pct(value)
+    return f"{value:.3f}" if kind == "reward" else f"{value:g}"
+
+
+def _change(value, kind: str) -> str:
+    if value is None:
+        return "-"
+    if kind == "rate":
+        return f"{100.0 * value:+.1f} points"
+    return f"{value:+.3f}" if kind == "reward" else f"{value:+g}"
+
+
+def _learning_markdown(report: dict) -> list[str]:
+    """The hard profile's sections: before and after learning on the same serves, what was
+    pruned, and the learning stages' curves batch by batch."""
+    lines = []
+    comparison = report.get("learning") or {}
+    if comparison:
+        lines += ["", "## Before and after learning, on the same serves", "",
+                  "gamma = 1 is the library before any learning (stage `gamma1`); the learned "
+                  "player is the `final` stage's (responsibilities and PoWER). Both play the same "
+                  "serves (same distribution, seed and count); the oracle teacher's figures on "
+                  "them are the ceiling.", ""]
+        for label, c in comparison.items():
+            o = c["oracle"]
+            lines += [f"**{label}** serves ({c['serves']}, `--distribution {c['distribution']} "
+                      f"--seed {c['seed']}`); oracle teacher: {o['returnable_serves']} returned "
+                      f"({_pct(o['returnable_rate'])}), on target "
+                      f"{_pct(o['oracle_target_rate'])}, mean reward "
+                      f"{_figure(o['oracle_mean_reward'], 'reward')}", "",
+                      "| | gamma = 1 | learned | change |", "|---|---|---|---|"]
+            lines += [f"| {ax['what']} | {_figure(ax['before'], ax['kind'])} | "
+                      f"{_figure(ax['after'], ax['kind'])} | {_change(ax['change'], ax['kind'])} |"
+                      for ax in c["axes"]]
+            lines.append("")
+    pruning = report.get("pruning")
+    if pruning:
+        lines += ["## Pruned primitives", ""]
+        for stage, what in (("responsibility", "responsibility learning"),
+                            ("power", "Algorithm 3 with PoWER, afterwards")):
+            p = pruning.get(stage)
+            if p is None:
+                continue
+            lines.append(
+                f"- {what}: {p['pruned']} of {pruning['primitives']}; while they played, "
+                f"legal returns {_pct(p['pruned_earlier_return'])}, mean reward "
+                f"{_figure(p['pruned_earlier_reward'], 'reward')} (the kept primitives: "
+                f"{_pct(p['kept_earlier_return'])}, {_figure(p['kept_earlier_reward'], 'reward')}"
+                "; gating-weighted over the stage's rollouts)")
+        lines += [f"- in all: {pruning['pruned']} of {pruning['primitives']} "
+                  f"({_pct(pruning['pruned_share'])}; the paper: about 27 %)", ""]
+    stages = report["stages"]
+    for stage, title, columns in (
+            ("responsibility", "Responsibility learning, batch by batch",
+             ("rollouts", "legal return by the primitives", "on target", "pruned",
+              "mean reward")),
+            ("power", "Algorithm 3 with PoWER, batch by batch (explored weights)",
+             ("rollouts", "mean reward", "legal return by the primitives", "on target",
+              "pruned", "primitives updated", "weights moved"))):
+        curve = (stages.get(stage) or {}).get("curve")
+        if not curve:
+            continue
+        lines += [f"## {title}", "", "| " + " | ".join(columns) + " |",
+                  "|" + "---|" * len(columns)]
+        for row in curve:
+            cells = [f"{row[0]:.0f}"]
+            for name, v in zip(columns[1:], row[1:], strict=False):
+                if name in ("pruned", "primitives updated"):
+                    cells.append(f"{v:.0f}")
+                elif name == "mean reward":
+                    cells.append("-" if v != v else f"{v:.3f}")  # NaN: not recorded
+                else:
+                    cells.append(_pct(v))
+            lines.append("| " + " | ".join(cells) + " |")
+        lines.append("")
+    return lines
 
 
 def load_report(folder) -> dict:

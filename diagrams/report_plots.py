@@ -6,6 +6,8 @@
   responsibility learning, on log-spaced bins, with the pruning threshold.
 * :func:`plot_landing_points`: top view of the table with where the returned balls landed and the
   landing target in the opponent's court.
+* :func:`plot_before_after`: figures before and after learning on the same serves, side by
+  side (the hard profile's ``gamma1`` and ``final``).
 * :func:`plot_prediction_errors`: predicted-minus-true hitting point, velocity and time on
   held-out serves, one histogram per output with its RMSE.
 
@@ -269,6 +271,47 @@ def plot_landing_points(
     """Write :func:`landing_points_figure` to ``path`` (PNG); returns the path."""
     return _write_png(path, landing_points_figure(points, target=target,
                                                   target_radius=target_radius))
+
+
+# ---------------------------------------------------------------------------- before / after
+def before_after_figure(groups: Mapping[str, Mapping[str, Sequence[float]]], *,
+                        labels: Sequence[str] = ("before", "after")) -> Figure:
+    """One panel per group (an evaluation serve set): for each axis ``name -> (before, after)``
+    two horizontal bars side by side with their values (rates and rewards as fractions; a figure
+    relative to a ceiling may exceed 1)."""
+    if len(groups) == 0:
+        raise ValueError("no serve set to plot")
+    panels = []
+    for title, axes in groups.items():
+        if len(axes) == 0:
+            raise ValueError(f"serve set {title!r} has no figure to plot")
+        names = [str(n) for n in axes]
+        values = np.array([_vector(v, f"{title!r}: {n!r}") for n, v in axes.items()])
+        if values.shape[1] != 2 or values.min() < 0.0:
+            raise ValueError(f"serve set {title!r}: each figure must be (before, after) >= 0")
+        panels.append((str(title), names, values))
+    fig = _new_figure((CURVE_FIGSIZE[0] * 1.3, 0.5 + 0.55 * sum(len(n) for _, n, _ in panels)))
+    top = max(1.0, max(v.max() for _, _, v in panels)) * 1.15
+    for k, (title, names, values) in enumerate(panels):
+        ax = fig.add_subplot(len(panels), 1, k + 1)
+        y = np.arange(len(names))[::-1].astype(float)
+        for j, (label, offset) in enumerate(zip(labels, (0.2, -0.2), strict=True)):
+            bars = ax.barh(y + offset, values[:, j], height=0.38, color=f"C{j}", label=label)
+            ax.bar_label(bars, labels=[f"{v:.3f}" for v in values[:, j]], fontsize="x-small",
+                         padding=2)
+        ax.set_yticks(y, names, fontsize="small")
+        ax.set_xlim(0.0, top)
+        ax.set_title(title, fontsize="medium")
+        ax.grid(True, axis="x", alpha=0.3)
+        if k == 0:
+            ax.legend(loc="lower right", fontsize="small")
+    return fig
+
+
+def plot_before_after(path: str | os.PathLike, groups, *,
+                      labels: Sequence[str] = ("before", "after")) -> Path:
+    """Write :func:`before_after_figure` to ``path`` (PNG); returns the path."""
+    return _write_png(path, before_after_figure(groups, labels=labels))
 
 
 # ---------------------------------------------------------------------------- predictor errors

@@ -26,7 +26,14 @@ serves and every learning stage's rollouts split evenly among them), and judges 
 unseen ``spin`` seeds and the ``real-test`` pool, before learning (``gamma1``) and after
 (``final``) on the same serves, each figure also relative to the oracle teacher's returnable
 ceiling on those serves (``DIR/ceiling``) and with the count of strokes whose hitting stage began
-on an early physical-model prediction.
+on an early physical-model prediction. Its momp player (stages ``single`` to ``final``) follows
+each new prediction (the moving goal) and takes the teacher's IK as the hitting configuration
+(:attr:`Protocol.configuration`); its CrKR is trained and judged by the ``crkr`` stage, as the
+paper's method, but not played by the mixture.
+
+Sizes (:data:`SIZES`, ``--sizes``) depend on the protocol: the paper's full run is
+:class:`ReproduceConfig`'s defaults and its quick run :func:`quick_config`; the hard profile's
+are :func:`hard_config` and :func:`hard_quick_config`.
 
 Checkpoints. ``DIR/config.json`` fixes the run's settings (a DIR holding another run is refused).
 Every rollout stage writes its episodes in chunks of :data:`CHUNK` (``episodes_00000.json`` ...),
@@ -120,6 +127,40 @@ def quick_config() -> ReproduceConfig:
         predictor_restarts=0)
 
 
+#: Balls of the ``real-test`` split that reach the robot's half (``tt-drake serves --info
+#: --distribution real-test``): a run of this many serves with one seed plays each once.
+REAL_TEST_POOL = 727
+
+
+def hard_config() -> ReproduceConfig:
+    """The hard profile's full run (``--protocol hard``, no ``--sizes``): about 1.5-2 h of stage
+    time on two cores (its serves cost more than the paper's: the moving goal and the oracle
+    teacher's ceiling). 600 teacher serves (200 of each training distribution); the GPR on 1,000
+    serves of the training mix, judged on 1,000 held-out ``spin`` and ``real-test`` serves; one
+    CrKR policy iteration (the paper's method, reported; the hard player plays the teacher's
+    IK); 5 single primitives x 20 serves; ``gamma1`` and ``final`` on the same 1,000 ``spin``
+    serves and on every ``real-test`` serve (the split's pool holds 727 balls that reach the
+    robot's half, each dealt once for the seed); 1,000 rollouts of responsibility learning and
+    600 of PoWER, in batches of 100."""
+    return replace(ReproduceConfig(), teacher_serves=600, predictor_train_serves=1000,
+                   predictor_test_serves=1000, predictor_restarts=0, crkr_serves=300,
+                   crkr_max_iterations=1, single_primitives=5, single_serves=20,
+                   responsibility_rollouts=1000, power_rollouts=600, final_serves=1000,
+                   real_serves=REAL_TEST_POOL)
+
+
+def hard_quick_config() -> ReproduceConfig:
+    """Every stage of the hard profile on few serves (``--quick --protocol hard``; CI): about
+    500 serves in all (90 teacher serves, one CrKR iteration on 30, 3 single primitives x 9,
+    ``gamma1`` and ``final`` on the same 30 ``spin`` and 30 ``real-test`` serves with the oracle
+    teacher's ceiling on them, 90 responsibility and 60 PoWER rollouts in batches of 30). Too
+    few serves to measure learning: it shows that every stage runs."""
+    return replace(quick_config(), teacher_serves=90, predictor_train_serves=150,
+                   predictor_test_serves=60, crkr_serves=30, crkr_max_iterations=1,
+                   single_serves=9, responsibility_rollouts=90, responsibility_batch=30,
+                   power_rollouts=60, power_batch=30, final_serves=30, real_serves=30)
+
+
 def artefacts_config() -> ReproduceConfig:
     """The sizes that trained the shipped hard artefacts (``models/learned-hard/``, with
     ``--protocol hard --sizes artefacts --until crkr``): the training stages only, sized for a
@@ -154,6 +195,11 @@ class Protocol:
     # The momp player's hitting DMP follows each new prediction until the cut-off (the moving
     # goal, ``LearnedPlayerConfig.moving_goal``); the paper profile commits at the swing start.
     moving_goal: bool = False
+    # The hitting configuration the momp player of the ``single``, ``gamma1``, ``responsibility``,
+    # ``power`` and ``final`` stages uses (``LearnedPlayerConfig.configuration``): ``crkr`` (the
+    # paper's) or ``analytical`` (the teacher's IK). The ``crkr`` stage trains and judges CrKR
+    # either way; the paper profile's ``gamma1`` plays both.
+    configuration: str = "crkr"
 
     def library_settings(self, config):
         """The settings the library and CrKR stages read: the protocol's, else ``config``'s."""
@@ -169,11 +215,15 @@ PROTOCOLS = {
     # Learning has to do something: spinning launcher serves and recorded real serves and rally
     # balls to learn from, unseen spin seeds and the real serves' test split to be judged on.
     # Its library imitates the arm's recorded strokes with softer DMPs (the weights decide the
-    # impact), gates and configures on the spin too; its GPR reads the estimated spin.
+    # impact), gates and configures on the spin too; its GPR reads the estimated spin. Its player
+    # takes the teacher's IK as the hitting configuration, as the shipped hard set does
+    # (tt_drake.models.ARTEFACT_SETS): with the spin stimulus its CrKR returned 11 of 20 real
+    # serves where the IK returned 20 (docs/learned_player.md); CrKR is still trained and
+    # reported.
     "hard": Protocol("hard", ("spin", "real-train", "rally-train"),
                      (("spin", "spin"), ("real-test", "real-test")), ceiling=True,
                      library=tuple(HARD_PROFILE.items()), predictor_features="states+spin",
-                     moving_goal=True),
+                     moving_goal=True, configuration="analytical"),
 }
 
 
@@ -355,12 +405,23 @@ def ceiling_rates(episodes: list[dict], oracle: list[dict]) -> dict:
     player's legal returns carried by the primitives among them."""
     returnable = [bool(o["returned"]) for o in oracle]
     n = sum(returnable)
-    carried = [bool(e["returned"]) and not (e.get("stroke") or {}).get("fallback", False)
-               for e in episodes]
-    returns = sum(c and r for c, r in zip(carried, returnable, strict=True))
+    carried = [not (e.get("stroke") or {}).get("fallback", False) for e in episodes]
+    returns = sum(bool(e["returned"]) and c and r
+                  for e, c, r in zip(episodes, carried, returnable, strict=True))
+    # On target and reward, next to the oracle teacher's on the same serves: the player's on-target
+    # strokes carried by the primitives per oracle on-target stroke, and its mean credited reward
+    # (0 for a fallback stroke) per oracle mean reward.
+    targets = sum(bool(e["on_target"]) and c for e, c in zip(episodes, carried, strict=True))
+    oracle_targets = sum(bool(o["on_target"]) for o in oracle)
+    reward = float(np.mean([credited_reward(e) for e in episodes])) if episodes else 0.0
+    oracle_reward = float(np.mean([o["reward"] for o in oracle])) if oracle else 0.0
     return {"returnable_serves": n, "returnable_rate": n / len(oracle) if oracle else 0.0,
             "returns_of_returnable": returns,
-            "return_rate_of_returnable": returns / n if n else None}
+            "return_rate_of_returnable": returns / n if n else None,
+            "oracle_target_rate": oracle_targets / len(oracle) if oracle else 0.0,
+            "target_of_ceiling": targets / oracle_targets if oracle_targets else None,
+            "momp_mean_reward": reward, "oracle_mean_reward": oracle_reward,
+            "reward_of_ceiling": reward / oracle_reward if oracle_reward > 0 else None}
 
 
 def credited_reward(episode: dict) -> float:
@@ -532,7 +593,10 @@ def _successful_pairs(episodes: list[dict], limit: int):
             np.array([s["theta_dot_hit"] for s in ok]))
 
 
-def _learned(run: Run, configuration: str = "crkr", distribution: str | None = None):
+def _learned(run: Run, configuration: str | None = None, distribution: str | None = None):
+    """The momp player's scenario with the run's library, best CrKR and GPR; ``configuration``:
+    the hitting configuration, by default the protocol's (:attr:`Protocol.configuration`)."""
+    configuration = configuration or run.protocol.configuration
     return run.scenario(library=str(run.path(run.result("library")["library"])),
                         crkr=str(run.path(run.result("crkr")["best"])),
                         predictor=str(run.path(run.result("predictor")["model"])),
@@ -607,7 +671,13 @@ def _gamma1_on_evaluation_serves(run: Run) -> dict:
         run.say(f"  MoMP gamma = 1, {label}: return {out[label]['momp_return_rate']:.1%} by "
                 f"the primitives")
     return {"evaluation": out, "seed": run.config.final_seed,
-            "serves": run.config.final_serves}
+            "serves": run.config.final_serves, **_player_settings(run)}
+
+
+def _player_settings(run: Run) -> dict:
+    """The momp player's settings a hard-profile stage result records."""
+    return {"configuration": run.protocol.configuration,
+            "moving_goal": run.protocol.moving_goal}
 
 
 def stage_responsibility(run: Run) -> dict:
@@ -624,11 +694,13 @@ def stage_responsibility(run: Run) -> dict:
     params = library.responsibility
     n = library.n_primitives
     state = {"s": np.zeros(n), "n": np.zeros(n), "gamma": np.ones(n), "batches": np.array(0),
-             "curve": np.zeros((0, 4))}
+             "curve": np.zeros((0, len(RESPONSIBILITY_CURVE)))}
     try:
         state, _ = load_artefact(folder / "state.npz", "responsibility-learning")
     except ArtefactError:
         pass
+    if state["curve"].shape[1] < len(RESPONSIBILITY_CURVE):  # saved before the mean reward
+        state["curve"] = np.hstack([state["curve"], np.full((len(state["curve"]), 1), np.nan)])
     batches = -(-c.responsibility_rollouts // c.responsibility_batch)
     usage = np.zeros(n) if "usage" not in state else state["usage"]
     success = np.zeros(n) if "success" not in state else state["success"]
@@ -652,7 +724,8 @@ def stage_responsibility(run: Run) -> dict:
             gamma[gamma < params.threshold] = 0.0
         r = rates(episodes)
         curve = np.vstack([state["curve"], [start + size, r["momp_return_rate"], r["target_rate"],
-                                            float(np.count_nonzero(gamma == 0))]])
+                                            float(np.count_nonzero(gamma == 0)),
+                                            np.mean([credited_reward(e) for e in episodes])]])
         state = {"s": s, "n": cnt, "gamma": gamma, "batches": np.array(b + 1), "curve": curve,
                  "usage": usage, "success": success}
         save_artefact(folder / "state.npz", "responsibility-learning", state,
@@ -663,15 +736,34 @@ def stage_responsibility(run: Run) -> dict:
                 f"{int(curve[-1, 3])} of {n}")
     gamma = state["gamma"]
     pruned = gamma == 0
-    earlier = (float(state["success"][pruned].sum() / state["usage"][pruned].sum())
-               if pruned.any() and state["usage"][pruned].sum() > 0 else None)
     out = run.folder("responsibility") / "library_learned.npz"
     _save_learned_library(run, gamma, state, out)
-    return {"curve": state["curve"].tolist(), "pruned": int(pruned.sum()), "primitives": n,
-            "pruned_share": float(pruned.mean()), "pruned_earlier_return": earlier,
+    return {"curve": state["curve"].tolist(), "curve_columns": list(RESPONSIBILITY_CURVE),
+            "pruned": int(pruned.sum()), "primitives": n,
+            "pruned_share": float(pruned.mean()),
+            **_earlier(pruned, state["usage"], state["success"], state["s"], state["n"]),
             "library": run.rel(out), "rollouts": c.responsibility_rollouts,
             "threshold": params.threshold,
             "batch": c.responsibility_batch, "seed": c.responsibility_seed}
+
+
+RESPONSIBILITY_CURVE = ("rollouts", "momp_return_rate", "target_rate", "pruned",
+                        "mean_reward")
+
+
+def _earlier(pruned, usage, success, s, n) -> dict:
+    """What the pruned primitives (and the kept ones) did while they played: their legal
+    returns carried by the primitives and their credited reward (s_i / n_i of Eq. 10), both
+    averaged with the gating weights nu_i of the rollouts they took part in."""
+    def share(mask, num, den):
+        return float(num[mask].sum() / den[mask].sum()) if mask.any() and den[mask].sum() > 0 \
+            else None
+
+    kept = ~pruned
+    return {"pruned_earlier_return": share(pruned, success, usage),
+            "pruned_earlier_reward": share(pruned, s, n),
+            "kept_earlier_return": share(kept, success, usage),
+            "kept_earlier_reward": share(kept, s, n)}
 
 
 def _save_learned_library(run: Run, gamma, state, out) -> None:
@@ -708,11 +800,16 @@ def stage_power(run: Run) -> dict:
         learner = MixtureLearner.from_state(state, library.stimuli, library.bandwidths,
                                             library.responsibility, params)
         done, curve = int(state["batches"]), state["curve"]
+        usage, success = (state["usage"], state["success"]) if "usage" in state else (
+            np.zeros(learner.n_primitives), np.zeros(learner.n_primitives))
     except ArtefactError:
         learner = MixtureLearner(library.weights, library.stimuli, library.bandwidths,
                                  library.responsibility, params, gamma=library.gamma,
                                  s=library.s, n=library.n)
         done, curve = 0, np.zeros((0, 7))
+        usage, success = np.zeros(learner.n_primitives), np.zeros(learner.n_primitives)
+    # s_i, n_i as the responsibility stage left them (a resumed learner's include this stage's)
+    was_pruned, s0, n0 = library.gamma == 0.0, library.s.copy(), library.n.copy()
     scenario = _learned(run)
     scenario.learned.library = str(run.path(source))
     batches = -(-c.power_rollouts // c.power_batch)
@@ -735,6 +832,9 @@ def stage_power(run: Run) -> dict:
                 continue  # no stroke was planned: nothing to credit
             learner.credit(stroke["stimulus"], stroke["primitives"], stroke["mixture"],
                            credited_reward(e), explored(i))
+            usage[stroke["primitives"]] += stroke["mixture"]
+            success[stroke["primitives"]] += np.asarray(stroke["mixture"]) * float(
+                e["returned"] and not stroke["fallback"])
         updated = learner.update_weights()
         r = rates(episodes)
         moved = float(np.mean(np.linalg.norm((learner.weights - start).reshape(n, -1), axis=1)
@@ -743,7 +843,8 @@ def stage_power(run: Run) -> dict:
                                    r["momp_return_rate"], r["target_rate"],
                                    float(learner.pruned.sum()), float(updated.size), moved]])
         save_artefact(folder / "state.npz", "power-learning",
-                      {**learner.state(), "batches": np.array(b + 1), "curve": curve},
+                      {**learner.state(), "batches": np.array(b + 1), "curve": curve,
+                       "usage": usage, "success": success},
                       {"rollouts": int(first + size)})
         shutil.rmtree(folder / f"batch_{b:04d}", ignore_errors=True)  # now in the state
         run.say(f"  PoWER batch {b + 1}/{batches}: mean reward {curve[-1, 1]:.3f}, return "
@@ -751,8 +852,12 @@ def stage_power(run: Run) -> dict:
                 f"updated, pruned {int(curve[-1, 4])} of {n}")
     out = folder / "library_power.npz"
     _save_power_library(run, source, learner, int(curve[-1, 0]), out)
+    # The primitives this stage pruned, with what they did in it: success from its rollouts,
+    # credited reward s_i / n_i over its rollouts (those of the responsibility stage taken out).
+    pruned = learner.pruned & ~was_pruned
     return {"curve": curve.tolist(), "curve_columns": list(POWER_CURVE),
             "primitives": n, "pruned": int(learner.pruned.sum()),
+            **_earlier(pruned, usage, success, learner.s - s0, learner.n - n0),
             "library": run.rel(out), "rollouts": c.power_rollouts, "batch": c.power_batch,
             "seed": c.power_seed, **params.to_dict(),
             "command": f"{c.power_rollouts} rollouts in batches of {c.power_batch}, --seed "
@@ -794,6 +899,8 @@ def stage_final(run: Run) -> dict:
         run.say(f"  final player, {name}: return {out[name]['momp_return_rate']:.1%} by the "
                 f"primitives ({out[name]['return_rate']:.1%} with fallbacks)")
     out["artefacts"] = _export_artefacts(run, library)
+    if run.protocol.ceiling:  # the paper's result as it was
+        out.update(_player_settings(run))
     return out
 
 
@@ -806,7 +913,8 @@ def _export_artefacts(run: Run, library: str, until: str | None = None) -> dict:
     for name, source in sources.items():
         shutil.copyfile(run.path(source), folder / f".{name}.tmp")
         (folder / f".{name}.tmp").replace(folder / name)
-    sizes = next((name for name, make in SIZES.items() if make() == run.config), None)
+    sizes = next((name for name, make in SIZES.items() if make(run.protocol.name) == run.config),
+                 None)
     command = "tt-drake reproduce" + (" --quick" if run.quick else "") + (
         f" --protocol {run.protocol.name}" if run.protocol.name != "paper" else "") + (
         f" --sizes {sizes}" if sizes not in (None, "full", "quick") else "") + (
@@ -824,17 +932,34 @@ STAGE_FUNCTIONS = {"teacher": stage_teacher, "predictor": stage_predictor,
                    "power": stage_power, "final": stage_final}
 
 
-#: Named stage sizes (``--sizes``): the full run, the CI-sized one, the hard artefacts' training.
-SIZES = {"full": ReproduceConfig, "quick": quick_config, "artefacts": artefacts_config}
+def _per_protocol(paper, hard):
+    """Stage sizes that depend on the protocol: ``sizes(protocol="paper")``."""
+    def sizes(protocol: str = "paper") -> ReproduceConfig:
+        if protocol not in PROTOCOLS:
+            raise ReproduceError(f"unknown protocol {protocol!r}; choose one of "
+                                 f"{', '.join(PROTOCOLS)}")
+        return (hard if protocol == "hard" else paper)()
+    return sizes
+
+
+#: Named stage sizes (``--sizes``), each a function of the protocol: the full run, the CI-sized
+#: one, the hard artefacts' training. The paper profile's are those of every earlier paper run
+#: (its ``config.json`` is unchanged, so such a run resumes).
+SIZES = {"full": _per_protocol(ReproduceConfig, hard_config),
+         "quick": _per_protocol(quick_config, hard_quick_config),
+         "artefacts": _per_protocol(artefacts_config, artefacts_config)}
 
 
 def reproduce(out, quick: bool = False, workers: int | None = None, executor: str = "local",
               progress: bool = True, config: ReproduceConfig | None = None,
-              protocol: str = "paper", until: str | None = None) -> dict:
+              protocol: str = "paper", until: str | None = None, sizes: str | None = None
+              ) -> dict:
     """Run the missing stages, then write the report; returns the report dict. ``protocol``:
-    a name in :data:`PROTOCOLS`. ``until``: stop after this stage; a run stopped after the
-    ``crkr`` stage (or later, before ``final``) exports the library, CrKR and predictor trained
-    so far to ``DIR/artefacts/`` (the primitives with gamma = 1 if no learning stage ran)."""
+    a name in :data:`PROTOCOLS`. ``config``: the stage sizes, else those named ``sizes`` (a key
+    of :data:`SIZES`), else the protocol's quick or full ones. ``until``: stop after this
+    stage; a run stopped after the ``crkr`` stage (or later, before ``final``) exports the
+    library, CrKR and predictor trained so far to ``DIR/artefacts/`` (the primitives with
+    gamma = 1 if no learning stage ran)."""
     from tt_drake.diagrams.inputs import check_inputs
     from tt_drake.diagrams.parallel import EXECUTORS, default_workers, executor_session
     from tt_drake.diagrams.report import write_report
@@ -848,7 +973,9 @@ def reproduce(out, quick: bool = False, workers: int | None = None, executor: st
                              f"{', '.join(PROTOCOLS)}")
     if until is not None and until not in STAGES:
         raise ReproduceError(f"unknown stage {until!r}; choose one of {', '.join(STAGES)}")
-    config = config or (quick_config() if quick else ReproduceConfig())
+    if sizes is not None and sizes not in SIZES:
+        raise ReproduceError(f"unknown sizes {sizes!r}; choose one of {', '.join(SIZES)}")
+    config = config or SIZES[sizes or ("quick" if quick else "full")](protocol)
     # Every file a stage will read, checked before the first stage: the final stage serves real
     # ball states (serves.json) after hours of the others.
     used = {*PROTOCOLS[protocol].train, *(d for _, d in PROTOCOLS[protocol].evaluate)}
@@ -874,5 +1001,6 @@ def reproduce(out, quick: bool = False, workers: int | None = None, executor: st
     return write_report(run)
 
 
-__all__ = ["reproduce", "ReproduceConfig", "quick_config", "artefacts_config", "SIZES",
+__all__ = ["reproduce", "ReproduceConfig", "quick_config", "artefacts_config", "hard_config",
+           "hard_quick_config", "SIZES",
            "ReproduceError", "STAGES", "rates", "PROTOCOLS", "Protocol", "ceiling_rates"]

@@ -108,11 +108,18 @@ def test_responsibility_learning_prunes_the_failing_primitives_and_resumes(tmp_p
     # Eq. 10's asymptote: a primitive is pruned iff its mean reward < 1 + zeta ln(thr) / kappa.
     assert whole["pruned"] == 2 and whole["primitives"] == 3
     assert 0.0 < whole["pruned_earlier_return"] < 0.25
+    # what they did, gating-weighted: the same as their success here (reward 1 iff returned);
+    # the kept primitive 1 always succeeded
+    assert whole["pruned_earlier_reward"] == pytest.approx(whole["pruned_earlier_return"])
+    assert whole["kept_earlier_return"] == whole["kept_earlier_reward"] == 1.0
     assert whole["library"] == "responsibility/library_learned.npz"  # no machine path
     library, _, _ = load_player_library(tmp_path / "whole" / whole["library"])
     assert library.n_primitives == 1 and library.stimuli[0, 1] == 1.0  # primitive 1 is kept
     curve = np.array(whole["curve"])
     assert curve[:, 0].tolist() == [20, 40, 60] and curve[-1, 1] > curve[0, 1]
+    # the batch's mean credited reward: here its legal-return rate (reward 1 iff returned)
+    np.testing.assert_allclose(curve[:, 4], curve[:, 1])
+    assert whole["curve_columns"][4] == "mean_reward"
 
     interrupted = _Rollouts(fail_at_batch=2)
     with pytest.raises(KeyboardInterrupt):
@@ -197,6 +204,7 @@ def test_power_stage_moves_the_weights_towards_better_strokes_and_resumes(tmp_pa
     whole = _power(tmp_path / "whole", straight, monkeypatch)
     library, _, _ = load_player_library(tmp_path / "whole" / whole["library"])
     assert library.n_primitives == 3 and whole["pruned"] == 0
+    assert whole["pruned_earlier_return"] is None and whole["kept_earlier_return"] == 1.0
     off = np.abs(library.weights[:, 0, 0] - 0.3)
     assert np.all(off < 0.2)  # from 0.3 m off
     curve = np.array(whole["curve"])
@@ -271,14 +279,23 @@ def test_a_hard_run_is_kept_apart_from_a_paper_run_and_a_bad_protocol_is_refused
 def test_ceiling_rates_count_the_primitives_returns_among_the_returnable_serves():
     episodes = [_episode(True, 1.0, [0], [1.0]), _episode(True, 0.9, [0], [1.0], fallback=True),
                 _episode(True, 0.8, [0], [1.0]), _episode(False, 0.0, [0], [1.0])]
-    oracle = [{"returned": True}, {"returned": True}, {"returned": False},
-              {"returned": True}]
+    oracle = [{"returned": True, "on_target": True, "reward": 0.9},
+              {"returned": True, "on_target": False, "reward": 0.5},
+              {"returned": False, "on_target": False, "reward": 0.2},
+              {"returned": True, "on_target": True, "reward": 1.0}]
     r = rp.ceiling_rates(episodes, oracle)
-    # serve 2 is returned but not returnable by the oracle: it is outside the ceiling's count
+    # serve 2 is returned but not returnable by the oracle: it is outside the ceiling's count;
+    # on target: the primitives carried 2 (serve 1's was a fallback), the oracle 2; the mean
+    # reward credits the fallback stroke 0: (1 + 0 + 0.8 + 0) / 4 against the oracle's 2.6 / 4
     assert r == {"returnable_serves": 3, "returnable_rate": 0.75, "returns_of_returnable": 1,
-                 "return_rate_of_returnable": pytest.approx(1 / 3)}
-    assert rp.ceiling_rates(episodes, [{"returned": False}] * 4)["return_rate_of_returnable"] \
-        is None
+                 "return_rate_of_returnable": pytest.approx(1 / 3), "oracle_target_rate": 0.5,
+                 "target_of_ceiling": 1.0, "momp_mean_reward": pytest.approx(0.45),
+                 "oracle_mean_reward": pytest.approx(0.65),
+                 "reward_of_ceiling": pytest.approx(0.45 / 0.65)}
+    nothing = [{"returned": False, "on_target": False, "reward": 0.0}] * 4
+    r = rp.ceiling_rates(episodes, nothing)
+    assert r["return_rate_of_returnable"] is None and r["target_of_ceiling"] is None
+    assert r["reward_of_ceiling"] is None
 
 
 def test_rates_count_the_strokes_carried_by_an_early_prediction():
