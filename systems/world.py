@@ -210,7 +210,9 @@ class ContactAccuracy:
       moving at up to 10 m/s).
 
     The decision uses the state at the end of each step, so the step that reaches a contact is
-    already taken at the contact accuracy (the horizon spans five 2 ms steps)."""
+    already taken at the contact accuracy (the horizon spans five 2 ms steps). The serve episodes
+    call it once per 4 ms referee tick instead (:func:`advance_in_segments`): the horizon still
+    covers the time to the next decision plus a step."""
 
     def __init__(self, simulator: Simulator, diagram, contact: float, flight: float,
                  horizon: float = 0.01):
