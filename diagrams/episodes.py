@@ -483,7 +483,7 @@ class ServeDiagram:
         max_duration = (float(serve.crossing.t + self.scenario.after_crossing)
                         if serve.crossing is not None else NO_CROSSING_DURATION)
         self.simulator.Initialize()
-        self._advance(max_duration)  # the referee may end it earlier
+        self.advance(max_duration)  # the referee may end it earlier
         self._end = max_duration
         duration = self.context.get_time()
         outcome = self.referee.GetOutputPort("outcome").Eval(
@@ -518,10 +518,12 @@ class ServeDiagram:
         the ball's flight after the decided landing. Changes no result already returned."""
         end = min(self.context.get_time() + seconds, self._end)
         if end > self.context.get_time():
-            self._advance(end)
+            self.advance(end)
 
-    def _advance(self, end: float) -> None:
-        """Simulate to ``end``, or until the referee ends the episode."""
+    def advance(self, end: float) -> None:
+        """Simulate to ``end``, or until a system ends the episode (the referee), with the
+        accuracy decided once per referee tick (:func:`advance_in_segments`) as the episodes
+        do: whoever continues an episode (the Gymnasium env) gets the same numbers."""
         if self._schedule is None:
             self.simulator.AdvanceTo(end)
         else:
