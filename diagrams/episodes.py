@@ -31,7 +31,14 @@ from tt_drake.systems.aerodynamics import add_aerodynamics
 from tt_drake.systems.ball_launcher import BallLauncher
 from tt_drake.systems.referee import Referee
 from tt_drake.systems.wam import SERVO_HOLD, add_servo_hold, hold_first_setpoint
-from tt_drake.systems.world import World, add_world, make_simulator, set_ball_state
+from tt_drake.systems.world import (
+    World,
+    add_world,
+    advance_in_segments,
+    contact_accuracy,
+    make_simulator,
+    set_ball_state,
+)
 from tt_drake.wam_params import SERVO_PERIOD
 
 # The players' set-points are held for a servo tick; they evaluate their plans half a tick ahead.
@@ -402,6 +409,11 @@ class ServeDiagram:
         self.diagram = builder.Build()
         self.diagram.set_name("serve_diagram")
         self.simulator = make_simulator(self.diagram, scenario.world)
+        # The episodes decide the integrator's accuracy once per referee tick (advance_in_segments)
+        # rather than through the simulator's monitor after every step; the monitor stays attached
+        # for whoever steps this simulator directly (the Gymnasium env).
+        self._schedule = contact_accuracy(self.simulator, self.diagram, scenario.world)
+        self._segment = period
         self.context = self.simulator.get_mutable_context()
         self._set_awaiting_posture()
         self._initial = self.context.Clone()
@@ -471,7 +483,7 @@ class ServeDiagram:
         max_duration = (float(serve.crossing.t + self.scenario.after_crossing)
                         if serve.crossing is not None else NO_CROSSING_DURATION)
         self.simulator.Initialize()
-        self.simulator.AdvanceTo(max_duration)  # the referee may end it earlier
+        self.advance(max_duration)  # the referee may end it earlier
         self._end = max_duration
         duration = self.context.get_time()
         outcome = self.referee.GetOutputPort("outcome").Eval(
@@ -506,7 +518,16 @@ class ServeDiagram:
         the ball's flight after the decided landing. Changes no result already returned."""
         end = min(self.context.get_time() + seconds, self._end)
         if end > self.context.get_time():
+            self.advance(end)
+
+    def advance(self, end: float) -> None:
+        """Simulate to ``end``, or until a system ends the episode (the referee), with the
+        accuracy decided once per referee tick (:func:`advance_in_segments`) as the episodes
+        do: whoever continues an episode (the Gymnasium env) gets the same numbers."""
+        if self._schedule is None:
             self.simulator.AdvanceTo(end)
+        else:
+            advance_in_segments(self.simulator, self._schedule, end, self._segment)
 
     def poses(self) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """The logged times (K,), ball positions (K, 7: quaternion w, x, y, z, then p) and arm

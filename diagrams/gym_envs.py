@@ -181,7 +181,7 @@ class ReturnBallEnv(gym.Env):
             a = np.clip(np.asarray(action, dtype=float).reshape(14), -1.0, 1.0) * self.scale
             self.player.apply_offset(self.player.GetMyMutableContextFromRoot(diagram.context),
                                      a[:7], a[7:])
-            diagram.simulator.AdvanceTo(episode["t_end"])  # the referee may end it earlier
+            diagram.advance(episode["t_end"])  # the referee may end it earlier
         outcome = diagram.referee.GetOutputPort("outcome").Eval(
             diagram.referee.GetMyContextFromRoot(diagram.context))
         info = _outcome_info(outcome, episode["seed"]) | {"committed": episode["committed"]}

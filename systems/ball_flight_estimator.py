@@ -5,7 +5,9 @@ At every planning tick (250 Hz, :data:`tt_drake.wam_params.PLANNING_RATE`) it re
 processed (so once per 60 Hz frame, at the first tick after it), runs one filter step at
 ``t_capture``:
 predict with the ball model (bounce included) and, unless the frame was dropped, gate and fuse the
-position. The complete filter state is the system's discrete state
+position. A tick without a new frame returns "did nothing" (``EventStatus.DidNothing``): the
+simulator then leaves the state, and the caches of everything reading the outputs, as they are.
+The complete filter state is the system's discrete state
 (:meth:`BallFlightEKF.to_vector`), so contexts clone and replay exactly.
 
 Ports:
@@ -22,13 +24,16 @@ Ports:
 import math
 
 import numpy as np
-from pydrake.systems.framework import LeafSystem
+from pydrake.systems.framework import EventStatus, LeafSystem
 
 from tt_drake.estimation import N_STATE, BallFlightEKF, EstimatorConfig
 from tt_drake.wam_params import PLANNING_RATE
 
 _X = BallFlightEKF.STATE_SLICE
 _P = BallFlightEKF.COVARIANCE_SLICE
+# A tick without a new frame changes nothing: returning "did nothing" tells the simulator not to
+# write the (unchanged) state back, so the caches of everything downstream stay valid.
+_NOTHING = EventStatus.DidNothing()
 
 
 class BallFlightEstimator(LeafSystem):
@@ -52,7 +57,7 @@ class BallFlightEstimator(LeafSystem):
         t = float(u[3])
         x = context.get_discrete_state(self._xd).get_value()
         if math.isnan(t) or not t > x[-1]:  # no frame yet, or processed (last_frame_t)
-            return
+            return _NOTHING  # the state is not written: nothing downstream is recomputed
         ekf = self._ekf
         ekf.load_vector(x)
         ekf.step(t, np.array(u[0:3]) if u[4] > 0.5 else None)

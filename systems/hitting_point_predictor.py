@@ -43,7 +43,7 @@ valid, final, spin_hit (3)]``; outputs copy slices of it.
 import math
 
 import numpy as np
-from pydrake.systems.framework import LeafSystem
+from pydrake.systems.framework import EventStatus, LeafSystem
 
 from tt_drake.constants import PLANES
 from tt_drake.hitting_point import N_OBSERVATIONS, HittingPointGPR, PhysicalPredictor
@@ -52,6 +52,9 @@ from tt_drake.wam_params import PLANNING_RATE
 
 _OBS = 2
 _OUT = 2 + 6 * N_OBSERVATIONS
+# A tick that finds no new estimate changes nothing: "did nothing" tells the simulator not to
+# write the unchanged state back, so the outputs' caches (and everything reading them) stay valid.
+_NOTHING = EventStatus.DidNothing()
 
 
 class HittingPointPredictor(LeafSystem):
@@ -152,7 +155,7 @@ class HittingPointPredictor(LeafSystem):
         x = context.get_discrete_state(self._xd).get_value()
         t = float(status[1])
         if status[0] < 0.5 or not t > x[1]:
-            return
+            return _NOTHING
         if self.play_again and self._state.Eval(context)[4] > 0.0 and (x[0] > 0 or x[_OUT + 7]):
             new = np.zeros_like(x)
             new[1] = t
@@ -160,7 +163,7 @@ class HittingPointPredictor(LeafSystem):
             return
         if x[_OUT + 8] == 1.0:
             if self.refresh is None:
-                return
+                return _NOTHING
             new = x.copy()
             new[1] = t
             pred = self._refreshed(self._state.Eval(context), self._spin_value(context), x, t)

@@ -108,10 +108,14 @@ class Referee(LeafSystem):
         self._table_geometries = set(table_geometry_ids)
         self._stop_below = stop_below
         self._stop_when_decided = stop_when_decided
-        self.DeclareVectorInputPort("ball_state", 13)
-        self.DeclareVectorInputPort("robot_state",
-                                    14 if racket_centre is None else racket_centre.state_size)
-        self.DeclareAbstractInputPort("contact_results", AbstractValue.Make(ContactResults()))
+        # The ports, kept: each 250 Hz sample reads them without looking them up (docs/
+        # performance.md, fourth pass).
+        self._ball = self.DeclareVectorInputPort("ball_state", 13)
+        self._robot = self.DeclareVectorInputPort(
+            "robot_state", 14 if racket_centre is None else racket_centre.state_size)
+        self._contacts = self.DeclareAbstractInputPort("contact_results",
+                                                       AbstractValue.Make(ContactResults()))
+        self._succeeded = EventStatus.Succeeded()
         self._state_index = self.DeclareAbstractState(AbstractValue.Make(_RefereeState()))
         self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, self._update)
         # The same update as a forced event, so that a sample can be taken on demand (tests).
@@ -121,15 +125,15 @@ class Referee(LeafSystem):
             self._calc_outcome)
 
     def _racket_center(self, context):
-        if self._racket_centre is None or not self.get_input_port(1).HasValue(context):
+        if self._racket_centre is None or not self._robot.HasValue(context):
             return None
-        x = self.get_input_port(1).Eval(context)
+        x = self._robot.Eval(context)
         return RacketAt(tuple(x[:self._racket_centre.num_positions].tolist()), self._racket_centre)
 
     def _robot_touches_table(self, context) -> bool:
-        if not self._table_geometries or not self.get_input_port(2).HasValue(context):
+        if not self._table_geometries or not self._contacts.HasValue(context):
             return False
-        results = self.get_input_port(2).Eval(context)
+        results = self._contacts.Eval(context)
         for i in range(results.num_point_pair_contacts()):
             pair = results.point_pair_contact_info(i)
             bodies = (pair.bodyA_index(), pair.bodyB_index())
@@ -142,7 +146,7 @@ class Referee(LeafSystem):
     def _update(self, context, state):
         old = context.get_abstract_state(self._state_index).get_value()
         # ContactDetector.sample's tuple of plain floats, made at once (tolist) at 250 Hz.
-        s = self.get_input_port(0).Eval(context).tolist()
+        s = self._ball.Eval(context).tolist()
         cur = (float(context.get_time()), (s[4], s[5], s[6]), (s[10], s[11], s[12]),
                (s[7], s[8], s[9]), self._racket_center(context))
         events = old.events
@@ -166,7 +170,7 @@ class Referee(LeafSystem):
             return EventStatus.ReachedTermination(self, "the ball reached the floor")
         state.get_mutable_abstract_state(self._state_index).set_value(
             _RefereeState(cur, events, touched))
-        return EventStatus.Succeeded()
+        return self._succeeded
 
     def events(self, context):
         return list(context.get_abstract_state(self._state_index).get_value().events)

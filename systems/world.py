@@ -141,10 +141,51 @@ def make_simulator(diagram, config: WorldConfig) -> Simulator:
 
     simulator = Simulator(diagram)
     ApplySimulatorConfig(config.simulator, simulator)
-    if config.flight_accuracy > 0.0:
-        simulator.set_monitor(ContactAccuracy(simulator, diagram, config.simulator.accuracy,
-                                              config.flight_accuracy))
+    schedule = contact_accuracy(simulator, diagram, config)
+    if schedule is not None:
+        simulator.set_monitor(schedule)
     return simulator
+
+
+def contact_accuracy(simulator: Simulator, diagram, config: WorldConfig):
+    """The :class:`ContactAccuracy` schedule of ``config`` for ``simulator`` (None when
+    ``config.flight_accuracy`` is 0)."""
+    if config.flight_accuracy <= 0.0:
+        return None
+    return ContactAccuracy(simulator, diagram, config.simulator.accuracy, config.flight_accuracy)
+
+
+def advance_in_segments(simulator: Simulator, schedule, end: float, period: float):
+    """``simulator.AdvanceTo(end)`` with ``schedule`` (a :class:`ContactAccuracy`) deciding the
+    accuracy once per ``period`` instead of after every integrator step: the simulation advances
+    to the next multiple of ``period`` (``k * period``, the same times as a periodic event of that
+    period, so the integrator stops nowhere it would not stop anyway when such an event exists),
+    the schedule sets the accuracy from the state there, and so on. One Python call per period
+    (250 Hz: ~400 per serve) instead of one per step (~1,400). The schedule's horizon must cover
+    ``period`` plus a step: a contact within ``period`` of a decision is then already within the
+    horizon at the decision before (docs/performance.md, fourth pass). While this runs the
+    simulator's own monitor is cleared (and restored after). Returns the last AdvanceTo status
+    (the referee's termination ends the loop)."""
+    import math
+
+    from pydrake.systems.analysis import SimulatorStatus
+
+    boundary = SimulatorStatus.ReturnReason.kReachedBoundaryTime
+    monitor = simulator.get_monitor()
+    simulator.clear_monitor()
+    context = simulator.get_context()
+    try:
+        k = math.floor(context.get_time() / period + 1e-9)
+        while True:
+            schedule(context)
+            k += 1
+            stop = min(k * period, end)
+            status = simulator.AdvanceTo(stop)
+            if stop >= end or status.reason() != boundary:
+                return status
+    finally:
+        if monitor is not None:
+            simulator.set_monitor(monitor)
 
 
 class ContactAccuracy:
@@ -169,7 +210,9 @@ class ContactAccuracy:
       moving at up to 10 m/s).
 
     The decision uses the state at the end of each step, so the step that reaches a contact is
-    already taken at the contact accuracy (the horizon spans five 2 ms steps)."""
+    already taken at the contact accuracy (the horizon spans five 2 ms steps). The serve episodes
+    call it once per 4 ms referee tick instead (:func:`advance_in_segments`): the horizon still
+    covers the time to the next decision plus a step."""
 
     def __init__(self, simulator: Simulator, diagram, contact: float, flight: float,
                  horizon: float = 0.01):

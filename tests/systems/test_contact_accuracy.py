@@ -90,3 +90,43 @@ def test_near_contact_sees_every_robots_racket():
         assert monitor.near_contact(context)
     set_ball_state(world, context, np.r_[0.0, 0.0, TABLE.surface_z + 1.0, 0, 0, 0, 0, 0, 0])
     assert not monitor.near_contact(context)
+
+
+def test_advancing_in_segments_keeps_the_recipes_bounce_and_the_monitor():
+    """The serve episodes' way (``advance_in_segments``: the schedule decides once per 4 ms
+    referee tick instead of after every step): the 30 cm drop still rebounds as at the recipe to
+    the micrometre, the simulation ends at the requested time, and the simulator's own monitor
+    is back afterwards."""
+    from tt_drake.systems.world import advance_in_segments, contact_accuracy
+
+    recipe = BallOnlyWorld(config=WorldConfig(with_robot=False))
+    config = WorldConfig(with_robot=False, flight_accuracy=1e-3)
+    world = BallOnlyWorld(config=config)
+    schedule = contact_accuracy(world.simulator, world.diagram, config)
+    z0 = TABLE.surface_z + BALL.radius + 0.30
+    _, expected, _, _ = recipe.run([0.0, -0.6, z0, 0, 0, 0], 1.0)
+
+    world.context.SetTimeStateAndParametersFrom(world._initial)
+    set_ball_state(world.world, world.world.plant.GetMyMutableContextFromRoot(world.context),
+                   np.r_[0.0, -0.6, z0, np.zeros(6)])
+    world.logger.FindMutableLog(world.context).Clear()
+    world.simulator.Initialize()
+    advance_in_segments(world.simulator, schedule, 1.0, 0.004)
+    assert world.context.get_time() == 1.0
+    assert world.simulator.get_monitor() is not None
+    p = world.logger.FindLog(world.context).data()[4:7].T
+    i = int(np.argmin(p[:, 2]))
+    j = int(np.argmin(expected[:, 2]))
+    assert float(p[i:, 2].max()) == pytest.approx(float(expected[j:, 2].max()), abs=1e-6)
+    # A flight 1 m above the table, far from everything: the schedule sets the flight accuracy.
+    world.context.SetTimeStateAndParametersFrom(world._initial)
+    set_ball_state(world.world, world.world.plant.GetMyMutableContextFromRoot(world.context),
+                   np.r_[0.0, -0.6, TABLE.surface_z + 1.0, 1.0, 0.0, 0.0, np.zeros(3)])
+    from pydrake.systems.analysis import ApplySimulatorConfig
+
+    ApplySimulatorConfig(config.simulator, world.simulator)
+    schedule = contact_accuracy(world.simulator, world.diagram, config)  # the new integrator
+    world.simulator.Initialize()
+    world.simulator.get_mutable_integrator().set_target_accuracy(1e-4)
+    advance_in_segments(world.simulator, schedule, 0.02, 0.004)
+    assert world.simulator.get_integrator().get_target_accuracy() == 1e-3

@@ -86,6 +86,42 @@ def test_estimator_matches_the_numpy_filter():
         ekf.P[6:9, 6:9].ravel(), abs=1e-12)
 
 
+def test_ticks_without_a_new_frame_or_estimate_report_that_they_did_nothing():
+    """A planning tick that finds no new camera frame (estimator) or no new estimate (predictor)
+    returns "did nothing", so that the simulator does not write the unchanged state back (and
+    nothing downstream is recomputed); a tick with something new updates the state."""
+    from pydrake.systems.framework import EventStatus
+
+    nothing = EventStatus.Severity.kDidNothing
+    est = BallFlightEstimator()
+    ctx = est.CreateDefaultContext()
+    values = est.AllocateDiscreteVariables()
+    port = est.GetInputPort("measurement")
+    port.FixValue(ctx, [math.nan] * 4 + [0.0])  # nothing delivered yet
+    assert est._update(ctx, values).severity() == nothing
+    port.FixValue(ctx, [0.1, 1.5, 0.9, 0.0, 1.0])
+    values.SetFrom(ctx.get_discrete_state())
+    status = est._update(ctx, values)
+    assert status is None or status.severity() != nothing
+    assert values.get_vector(0).CopyToVector()[-1] == 0.0  # the frame's time, recorded
+    ctx.SetDiscreteState(values.get_vector(0).CopyToVector())
+    assert est._update(ctx, values).severity() == nothing  # the same frame again
+
+    pred = HittingPointPredictor()
+    pctx = pred.CreateDefaultContext()
+    pvalues = pred.AllocateDiscreteVariables()
+    pred.GetInputPort("state").FixValue(pctx, [0.1, 0.1, 0.95, 0.1, -5.4, -1.0])
+    pred.GetInputPort("status").FixValue(pctx, [0.0, 0.0])  # not tracking
+    assert pred._update(pctx, pvalues).severity() == nothing
+    pred.GetInputPort("status").FixValue(pctx, [1.0, 0.1])
+    pvalues.SetFrom(pctx.get_discrete_state())
+    status = pred._update(pctx, pvalues)
+    assert status is None or status.severity() != nothing
+    assert pvalues.get_vector(0).GetAtIndex(1) == 0.1  # the estimate's time, taken
+    pctx.SetDiscreteState(pvalues.get_vector(0).CopyToVector())
+    assert pred._update(pctx, pvalues).severity() == nothing  # the same estimate again
+
+
 def test_predictor_collects_four_observations_after_the_plane():
     pred = HittingPointPredictor()  # physical model
     ctx = pred.CreateDefaultContext()

@@ -1,0 +1,85 @@
+"""A lever on and off in one process, serve by serve (docs/performance.md, fourth pass).
+
+    OPENBLAS_NUM_THREADS=1 python docs/examples/lever_toggle.py segments [--player momp]
+        [--serves 12] [--seed 3]
+
+Builds the serve diagram once, runs one warm-up episode, then runs each serve twice, once with
+the lever and once without (the order alternating from serve to serve), and prints the CPU time
+(``time.process_time``) per serve of each and their ratio. On a machine whose load changes from
+minute to minute this compares the two under the same load, which runs of two checkouts one
+after the other do not. Levers:
+
+- ``segments``: the serve episode decides the integrator's accuracy once per referee tick
+  (``advance_in_segments``) against ContactAccuracy's monitor after every integrator step;
+- ``did-nothing``: the EKF's and the hitting-point predictor's ticks without anything new return
+  ``EventStatus.DidNothing`` against returning nothing (the simulator then writes the unchanged
+  state back).
+
+It also counts the serves whose outcome and episode duration are equal both ways (``did-nothing``
+changes no number; ``segments`` may move the integrator's steps, and the outcome check for it is
+``compare_serves.py`` on 100 serves).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import statistics
+import time
+
+from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
+from tt_drake.diagrams.scenario import load_scenario
+from tt_drake.models import use_artefact_set
+
+_DID_NOTHING_MODULES = ("tt_drake.systems.ball_flight_estimator",
+                        "tt_drake.systems.hitting_point_predictor")
+
+
+def toggles(diagram: ServeDiagram) -> dict:
+    schedule = diagram._schedule
+    nothing = {m: importlib.import_module(m)._NOTHING for m in _DID_NOTHING_MODULES}
+
+    def segments(on: bool) -> None:
+        diagram._schedule = schedule if on else None  # None: AdvanceTo with the monitor
+
+    def did_nothing(on: bool) -> None:
+        for m, status in nothing.items():
+            importlib.import_module(m)._NOTHING = status if on else None
+
+    return {"segments": segments, "did-nothing": did_nothing}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("lever", choices=("segments", "did-nothing"))
+    ap.add_argument("--player", default="momp")
+    ap.add_argument("--serves", type=int, default=12)
+    ap.add_argument("--seed", type=int, default=3)
+    args = ap.parse_args()
+    scenario = load_scenario()
+    use_artefact_set(scenario.learned)  # the shipped paper set, as `tt-drake serve` plays it
+    diagram = ServeDiagram(scenario, args.player)
+    toggle = toggles(diagram)[args.lever]
+    diagram.run(episode_seed(args.seed, 0))
+    cpu = {False: [], True: []}
+    results = {False: [], True: []}
+    for i in range(args.serves):
+        for on in ((True, False) if i % 2 else (False, True)):
+            toggle(on)
+            c0 = time.process_time()
+            r = diagram.run(episode_seed(args.seed, i))
+            cpu[on].append(time.process_time() - c0)
+            results[on].append((r.outcome.as_dict(), r.duration))
+    toggle(True)
+    off, on = sum(cpu[False]), sum(cpu[True])
+    per_serve = [a / b for a, b in zip(cpu[False], cpu[True], strict=True)]
+    same = sum(a == b for a, b in zip(results[False], results[True], strict=True))
+    n = args.serves
+    print(f"{args.lever}, {args.player}, {n} serves (seed {args.seed}): without "
+          f"{1e3 * off / n:.1f}, with {1e3 * on / n:.1f} CPU ms per serve; without / with "
+          f"{off / on:.3f} (median per serve {statistics.median(per_serve):.3f}); outcome and "
+          f"duration equal in {same} of {n}")
+
+
+if __name__ == "__main__":
+    main()
