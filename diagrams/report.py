@@ -254,7 +254,7 @@ def _plots(run, results: dict) -> list[str]:
                   {"label": "share pruned", "x": curve[:, 0],
                    "y": curve[:, 3] / resp["primitives"]}]
         if curve.shape[1] > 4 and np.all(np.isfinite(curve[:, 4])):
-            series.append({"label": "mean reward (0 for a fallback)", "x": curve[:, 0],
+            series.append({"label": "mean reward x 100 (0 for a fallback)", "x": curve[:, 0],
                            "y": curve[:, 4]})
         written.append(rp.plot_learning_curve(
             folder / "responsibility_learning.png", series,
