@@ -325,7 +325,8 @@ def build_parser() -> argparse.ArgumentParser:
                           "spin and recorded serves, judged on unseen ones against the oracle "
                           "teacher's ceiling (docs/reproducing.md)")
     rep.add_argument("--sizes", default=None, choices=("full", "quick", "artefacts"),
-                     help="the stages' serve counts: full (the default), quick (= --quick), or "
+                     help="the stages' serve counts, the protocol's: full (the default), quick "
+                          "(= --quick), or "
                           "artefacts (the training stages' sizes that made "
                           "models/learned-hard/, with --until crkr)")
     rep.add_argument("--until", default=None, choices=REPRODUCE_STAGES,

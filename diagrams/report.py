@@ -254,7 +254,7 @@ def _plots(run, results: dict) -> list[str]:
                   {"label": "share pruned", "x": curve[:, 0],
                    "y": curve[:, 3] / resp["primitives"]}]
         if curve.shape[1] > 4 and np.all(np.isfinite(curve[:, 4])):
-            series.append({"label": "mean reward (0 for a fallback)", "x": curve[:, 0],
+            series.append({"label": "mean reward x 100 (0 for a fallback)", "x": curve[:, 0],
                            "y": curve[:, 4]})
         written.append(rp.plot_learning_curve(
             folder / "responsibility_learning.png", series,
@@ -384,7 +384,7 @@ def format_markdown(report: dict) -> str:
         lines.append(f"| {r['experiment']} | {r['paper']} | {ours} | {r['serves']} | "
                      f"`{r['command']}` |")
     if protocol != "paper":
-        lines += _learning_markdown(report)
+        lines += _player_note(protocol) + _learning_markdown(report)
     lines += ["", "Stage times: " + ", ".join(f"{k} {v.get('wall_seconds', 0) / 60:.1f} min"
                                              for k, v in report["stages"].items()), ""]
     lines += [f"![{Path(p).stem}]({p})" for p in report["plots"]]
@@ -405,6 +405,23 @@ def _change(value, kind: str) -> str:
     if kind == "rate":
         return f"{100.0 * value:+.1f} points"
     return f"{value:+.3f}" if kind == "reward" else f"{value:+g}"
+
+
+def _player_note(protocol: str) -> list[str]:
+    """What the protocol's momp player plays, when it is not the paper's (CrKR, committed at the
+    swing start)."""
+    from tt_drake.diagrams.reproduce import PROTOCOLS
+
+    chosen = PROTOCOLS[protocol]
+    if chosen.configuration == "crkr":
+        return []
+    return ["", f"The CrKR rows are the paper's method, trained and judged by the `crkr` player "
+                f"(CrKR with the teacher's quintic stages); the {protocol} profile's momp player "
+                f"(`single`, `gamma1`, `responsibility`, `power`, `final`) does not play it: its "
+                f"hitting configuration is the teacher's IK (`--configuration "
+                f"{chosen.configuration}`)"
+                + (", and its hitting DMP follows each new prediction (the moving goal)."
+                   if chosen.moving_goal else ".")]
 
 
 def _learning_markdown(report: dict) -> list[str]:

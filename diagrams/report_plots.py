@@ -303,8 +303,8 @@ def before_after_figure(groups: Mapping[str, Mapping[str, Sequence[float]]], *,
         ax.set_xlim(0.0, top)
         ax.set_title(title, fontsize="medium")
         ax.grid(True, axis="x", alpha=0.3)
-        if k == 0:
-            ax.legend(loc="lower right", fontsize="small")
+    handles, names = fig.get_axes()[0].get_legend_handles_labels()
+    fig.legend(handles, names, loc="outside upper center", ncols=2, fontsize="small")
     return fig
 
 

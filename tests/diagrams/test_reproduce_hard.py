@@ -209,8 +209,12 @@ def test_the_hard_report_shows_before_and_after_on_the_same_serves_and_the_prune
     assert "| 60 | 60.0 % | 20.0 % | 3 | 0.500 |" in text  # the responsibility curve
     assert "their mean reward 0.300, the kept ones' 0.800" in \
         {r["key"]: r for r in report["table"]}["pruned"]["ours"]
+    assert "momp player (`single`, `gamma1`, `responsibility`, `power`, `final`) does not " \
+           "play it: its hitting configuration is the teacher's IK (`--configuration " \
+           "analytical`), and its hitting DMP follows each new prediction" in text
     # the paper profile's report has none of these sections
-    assert "Before and after" not in format_markdown({**report, "protocol": "paper"})
+    paper = format_markdown({**report, "protocol": "paper"})
+    assert "Before and after" not in paper and "does not play it" not in paper
 
 
 def test_before_after_plot(tmp_path):
