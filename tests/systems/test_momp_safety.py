@@ -37,9 +37,9 @@ def test_the_arm_holds_when_it_leaves_the_plan():
     before = player.player_state(context)
     after = _tick(player, context)
     assert after.plan is before.plan and not after.stroke.held
-    # Past it (one joint 0.3 rad behind, the arm moving at 6 rad/s): the stroke is abandoned.
+    # Past it (one joint 0.7 rad behind, the arm moving at 6 rad/s): the stroke is abandoned.
     q_arm, qd_arm = q.copy(), qd.copy()
-    q_arm[2] -= 0.3
+    q_arm[2] -= 0.7
     qd_arm[0] = 6.0
     _measure(player, context, q_arm, qd_arm)
     held = _tick(player, context)
@@ -63,6 +63,21 @@ def test_the_arm_holds_when_it_leaves_the_plan():
     # Committed: a new prediction no longer starts a stroke.
     fix_inputs(player, context, np.full(6, 0.5), T_HIT + 0.02)
     assert _tick(player, context).plan is held.plan
+
+
+def test_the_arm_holds_when_a_joint_is_faster_than_any_plan_asks():
+    player, context, *_ = _stroke_under_way()
+    now = context.get_time() + 0.004
+    q, qd, _ = player.player_state(context).plan.evaluate(now)
+    fast = qd.copy()
+    fast[2] = 0.99 * player.config.hold_speed * player.limits.velocity[2]
+    _measure(player, context, q, fast)
+    assert not _tick(player, context).stroke.held
+    fast[2] = 1.01 * player.config.hold_speed * player.limits.velocity[2]
+    _measure(player, context, q, fast)
+    held = _tick(player, context)
+    assert held.stroke.held and held.committed
+    np.testing.assert_allclose(held.plan.evaluate(context.get_time())[1], fast, atol=1e-12)
 
 
 def test_the_stop_is_inside_the_acceleration_limit_at_the_velocity_limit():
