@@ -25,11 +25,12 @@ otherwise falls back to the teacher's quintic stages (:func:`tt_drake.stages.pla
 same hitting configuration; ``MoMPStroke.fallback`` records it.
 
 With the moving goal (``goal_cutoff``) the hitting stage's goal follows new predictions until the
-cut-off (:func:`tt_drake.learned_player.move_hitting_goal`); a refused move is tried again when
-the prediction or configuration moved past the re-planning thresholds since, or ``retry_period``
-after the refusal. Safety: with the measured arm state connected (``arm_state``), an arm more
-than ``hold_error`` from the plan (it no longer follows it: a saturated joint under the
-inverse-dynamics controller) ends the stroke: the player plays
+cut-off (:func:`tt_drake.learned_player.move_hitting_goal`); a refused move is tried again at
+the next planning tick (with ``retry_period``: only once the prediction or configuration moved
+past the re-planning thresholds, or that long after the refusal). Safety: with the measured arm
+state connected (``arm_state``), a joint faster than ``hold_speed`` times its velocity limit or
+more than ``hold_error`` from the plan (the arm no longer follows it: a saturated joint under
+the inverse-dynamics controller) ends the stroke: the player plays
 :meth:`MoMPTrajectorySource.hold_plan` from the measured state (``MoMPStroke.held``).
 
 Without a library (``library=None``: the ``crkr`` player of paper section III-B.2) every plan is
@@ -121,8 +122,8 @@ class MoMPConfig:
     goal_cutoff: float | None = None
     # With a value (s), a move of the goal refused by the limits is tried again only when the
     # prediction or the configuration has moved past the re-planning thresholds since the
-    # refusal, or this long after it. None (the default): at every planning tick. 0.02 s halved
-    # the tries on 60 real-test serves but, with the 1.2x budget, lost one return
+    # refusal, or this long after it. None (the default): at every planning tick. 0.02 s cut a
+    # third of the tries on 60 real-test serves but, with the 1.2x budget, lost one return
     # (docs/learned_player.md, "Refused moves").
     retry_period: float | None = None
     # Safety (needs the ``arm_state`` input): when a measured joint is faster than
@@ -286,9 +287,10 @@ class MoMPTrajectorySource(StagePlanPlayer):
         """During the hitting stage, before the cut-off: a prediction that differs from the
         stroke's goal (re-planning thresholds) moves the hitting DMP's goal if the plan that
         comes of it stays inside the joint and effort limits; otherwise the stroke keeps its
-        goal and the move is tried again (a re-plan refused before the hitting stage is tried
-        here too) once the prediction or configuration has moved past the re-planning
-        thresholds since the refusal, or ``retry_period`` after it."""
+        goal and the move is tried again at the next tick (a re-plan refused before the hitting
+        stage is tried here too); with ``retry_period``, only once the prediction or
+        configuration has moved past the re-planning thresholds since the refusal, or that long
+        after it."""
         if self._valid.Eval(context)[0] < 0.5:
             return
         p_hit, t_hit = self._p.Eval(context), float(self._t.Eval(context)[0])
