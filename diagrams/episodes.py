@@ -192,7 +192,7 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     from tt_drake.systems.hitting_configuration import HittingConfiguration
     from tt_drake.systems.hitting_ik import HittingIK
     from tt_drake.systems.hitting_point_predictor import HittingPointPredictor
-    from tt_drake.systems.momp_player import MOVING_GOAL_CUTOFF, MoMPConfig, MoMPTrajectorySource
+    from tt_drake.systems.momp_player import MoMPTrajectorySource, momp_config
 
     learned = load_learned_player(scenario, primitives)
     # A GPR is fed the estimates of the filter it was trained on (docs/spin.md).
@@ -230,8 +230,10 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     player = builder.AddNamedSystem("momp_player", MoMPTrajectorySource(
         learned.get("library"), learned.get("stages"), arm=HittingIK(),
         setpoint_lead=SETPOINT_LEAD, stimulus=None if crkr is None else crkr.stimulus,
-        config=MoMPConfig(goal_cutoff=MOVING_GOAL_CUTOFF if scenario.learned.moving_goal
-                          else None)))
+        config=momp_config(scenario.learned.moving_goal)))
+    # The measured arm: the player holds when the arm no longer follows its plan.
+    builder.Connect(world.plant.get_state_output_port(world.robot),
+                    player.GetInputPort("arm_state"))
     for name in ("p_hit", "v_hit", "t_hit", "valid", "spin_hit"):
         builder.Connect(predictor.GetOutputPort(name), configuration.GetInputPort(name))
     for name in ("p_hit", "v_hit", "t_hit", "spin_hit"):
@@ -301,7 +303,8 @@ def stroke_summary(stroke) -> dict | None:
             "theta_dot_hit": [round(float(c), 6) for c in stroke.qd_hit],
             "primitives": [int(i) for i in stroke.primitives],
             "mixture": [round(float(w), 6) for w in stroke.mixture],
-            "replans": int(stroke.replans), "fallback": bool(stroke.fallback)}
+            "replans": int(stroke.replans), "fallback": bool(stroke.fallback),
+            **({"held": True} if stroke.held else {})}
 
 
 class ServeDiagram:

@@ -220,6 +220,9 @@ class MoMPStroke:
     # The MoMP plan left the joint or effort limits and the teacher's quintic stages were used
     # instead; ``primitives`` and ``mixture`` are then those of the mixture that failed.
     fallback: bool = False
+    # The measured arm left the plan (``MoMPConfig.hold_error``): the stroke was abandoned and
+    # the arm held (``MoMPTrajectorySource.hold_plan``).
+    held: bool = False
 
 
 def plan_momp_stroke(now: float, state, stimulus, t_hit: float, q_hit, qd_hit,
