@@ -6,6 +6,7 @@
     tt-drake serves --info [--distribution D]   (the real-ball pools' counts, docs/serves.md)
     tt-drake bench  [--serves N] [--json out.json]
     tt-drake collect --player analytical --serves N --seed S --out DIR [--workers W]
+                     [--perception camera|oracle]
     tt-drake models  (rewrite the generated model files in models/)
     tt-drake train library|crkr --data DIR --out FILE [--primitives 300] [--samples 2500]
                                 [--stimulus paper|spin] [--demonstrations planned|recorded]
@@ -179,6 +180,12 @@ def _add_learned_options(p: argparse.ArgumentParser, artefact_sets: bool = True)
                         "played with the hitting DMP's moving goal)")
 
 
+def _add_perception_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--perception", choices=("camera", "oracle"), default=None,
+                        help="what the player sees: camera (+ EKF) or oracle (the true ball "
+                             "state); default: the scenario's (camera)")
+
+
 def _add_player_option(p: argparse.ArgumentParser, default: str | None) -> None:
     p.add_argument("--player", default=default, type=_one_of("player", PLAYER_NAMES),
                    choices=PLAYER_NAMES,
@@ -205,9 +212,7 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--quiet", action="store_true", help="no progress bar")
     serve.add_argument("--workers", type=_positive_int, default=1,
                        help="parallel worker processes (not with --html)")
-    serve.add_argument("--perception", choices=("camera", "oracle"), default=None,
-                       help="what the player sees: camera (+ EKF) or oracle (the true ball "
-                            "state); default: the scenario's (camera)")
+    _add_perception_option(serve)
     serve.add_argument("--ceiling", action="store_true",
                        help="also play the same serves with the oracle analytical player and "
                             "report returnable_rate and return_rate_of_returnable")
@@ -258,6 +263,7 @@ def build_parser() -> argparse.ArgumentParser:
     collect.add_argument("--workers", type=_positive_int, default=None,
                          help="parallel worker processes (default: all cores)")
     collect.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_perception_option(collect)
     _add_scenario_options(collect)
 
     pools = command("serves", help="the serve distributions' real-ball pools")

@@ -46,10 +46,15 @@ def _chunk_path(folder: Path, index: int) -> Path:
 
 
 def _manifest(scenario: Scenario, player: str, serves: int, seed: int, chunk_size: int) -> dict:
-    return {"format": KIND, "player": player, "scenario": scenario.name,
-            "distribution": scenario.launcher.distribution, "seed": seed, "serves": serves,
-            "chunk_size": chunk_size, "stages": list(STAGES),
-            "trajectory_columns": TRAJECTORY_COLUMNS}
+    manifest = {"format": KIND, "player": player, "scenario": scenario.name,
+                "distribution": scenario.launcher.distribution, "seed": seed, "serves": serves,
+                "chunk_size": chunk_size, "stages": list(STAGES),
+                "trajectory_columns": TRAJECTORY_COLUMNS}
+    # Named only when not the camera's, so datasets collected before perception was recorded
+    # (all through the camera) still resume.
+    if scenario.perception != "camera":
+        manifest["perception"] = scenario.perception
+    return manifest
 
 
 def prepare_folder(folder: Path, manifest: dict):

@@ -62,3 +62,22 @@ def test_another_run_or_a_damaged_chunk_is_refused(dataset, tmp_path):
     (copy / "chunk_00001.npz").write_bytes(b"\x00" * 100)
     with pytest.raises(DatasetError, match="incomplete or damaged"):
         load_dataset(copy)
+
+
+def test_an_oracle_teacher_demonstrates_on_the_true_hitting_state(tmp_path):
+    """With the oracle's perception (the paper protocol's teacher) the stimulus the teacher
+    planned for is the ball's true state at the hitting plane to a millimetre and mm/s (through
+    the camera it is centimetres off, above); the dataset names its perception, and the same
+    run through the camera is another run's dataset."""
+    scenario = load_scenario()
+    scenario.perception = "oracle"
+    folder = tmp_path / "oracle"
+    collect(scenario, "analytical", 2, 5, str(folder), progress=False)
+    data = load_dataset(folder)
+    assert data["manifest"]["perception"] == "oracle"
+    hit = data["hit"].astype(bool)
+    assert hit.all()
+    err = np.abs(data["stimulus"][hit] - data["true_hit"][hit])
+    assert np.all(err[:, :3] < 1e-3) and np.all(err[:, 3:6] < 5e-3)
+    with pytest.raises(DatasetError, match="another run's dataset"):
+        collect(load_scenario(), "analytical", 2, 5, str(folder), progress=False)

@@ -342,3 +342,26 @@ def test_the_hard_protocol_trains_its_library_crkr_and_predictor_with_its_own_se
     assert hard["stimulus"] == SPIN_STIMULUS and hard["dmp"].alpha_y == 15.0
     assert hard["demonstrations"] == "recorded" and hard["hitting_borrow"] == 0.0
     assert PROTOCOLS["hard"].predictor_features == "states+spin"
+
+
+@pytest.mark.parametrize("protocol, perception", [("paper", "oracle"), ("hard", "camera")])
+def test_the_teacher_demonstrates_with_its_protocols_perception(tmp_path, monkeypatch, protocol,
+                                                                 perception):
+    """The paper protocol's teacher sees the oracle (its spin at impact is then not the EKF's
+    noisy one), the hard protocol's the camera; the stage's result and command say which."""
+    from tt_drake.serves import ServeSampler
+
+    seen = []
+
+    def collect(scenario, player, serves, seed, out, workers, progress, executor):
+        seen.append((scenario.perception, player))
+        return {"return_rate": 1.0}
+
+    monkeypatch.setattr("tt_drake.diagrams.collect.collect", collect)
+    monkeypatch.setattr(rp, "_merge_datasets", lambda folders, out: 1.0)
+    monkeypatch.setattr(ServeSampler, "pool", lambda self: [])  # no pool is flown here
+    run = rp.Run(tmp_path / protocol, rp.quick_config(), quick=True, workers=1, progress=False,
+                 protocol=protocol)
+    result = rp.stage_teacher(run)
+    assert set(seen) == {(perception, "analytical")} and result["perception"] == perception
+    assert ("--perception oracle" in result["command"]) == (perception == "oracle")
