@@ -164,14 +164,16 @@ def advance_in_segments(simulator: Simulator, schedule, end: float, period: floa
     (250 Hz: ~400 per serve) instead of one per step (~1,400). The schedule's horizon must cover
     ``period`` plus a step: a contact within ``period`` of a decision is then already within the
     horizon at the decision before (docs/performance.md, fourth pass). While this runs the
-    simulator's own monitor is cleared (and restored after). Returns the last AdvanceTo status
-    (the referee's termination ends the loop)."""
+    simulator has no monitor; afterwards ``schedule`` is its monitor (as :func:`make_simulator`
+    leaves it). The monitor it had is not read back and set again: each such round trip through
+    pybind wraps the previous wrapper, so a worker that played ~1,000 serves hit Python's
+    recursion limit inside the monitor. Returns the last AdvanceTo status (the referee's
+    termination ends the loop)."""
     import math
 
     from pydrake.systems.analysis import SimulatorStatus
 
     boundary = SimulatorStatus.ReturnReason.kReachedBoundaryTime
-    monitor = simulator.get_monitor()
     simulator.clear_monitor()
     context = simulator.get_context()
     try:
@@ -184,8 +186,7 @@ def advance_in_segments(simulator: Simulator, schedule, end: float, period: floa
             if stop >= end or status.reason() != boundary:
                 return status
     finally:
-        if monitor is not None:
-            simulator.set_monitor(monitor)
+        simulator.set_monitor(schedule)
 
 
 class ContactAccuracy:

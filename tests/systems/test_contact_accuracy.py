@@ -130,3 +130,27 @@ def test_advancing_in_segments_keeps_the_recipes_bounce_and_the_monitor():
     world.simulator.get_mutable_integrator().set_target_accuracy(1e-4)
     advance_in_segments(world.simulator, schedule, 0.02, 0.004)
     assert world.simulator.get_integrator().get_target_accuracy() == 1e-3
+
+
+def test_advancing_in_segments_many_times_leaves_one_monitor():
+    """A worker process plays thousands of serves on one simulator. Reading the monitor back
+    from pybind and setting it again nests one wrapper per episode; after ~1,000 the monitor's
+    next call exceeded Python's recursion limit (a full paper teacher run died at serve 1,939 on
+    two workers). After 1,500 segmented advances the monitor still runs, once, and still
+    decides the accuracy."""
+    import sys
+
+    from tt_drake.systems.world import advance_in_segments, contact_accuracy
+
+    config = WorldConfig(with_robot=False, flight_accuracy=1e-3)
+    world = BallOnlyWorld(config=config)
+    schedule = contact_accuracy(world.simulator, world.diagram, config)
+    set_ball_state(world.world, world.world.plant.GetMyMutableContextFromRoot(world.context),
+                   np.r_[0.0, -0.6, TABLE.surface_z + 1.0, 1.0, 0.0, 0.0, np.zeros(3)])
+    world.simulator.Initialize()
+    n = max(1500, sys.getrecursionlimit() + 100)
+    for k in range(1, n + 1):
+        advance_in_segments(world.simulator, schedule, k * 1e-5, 0.004)
+    world.simulator.get_mutable_integrator().set_target_accuracy(1e-4)
+    world.simulator.AdvanceTo(world.context.get_time() + 0.004)  # the monitor runs here
+    assert world.simulator.get_integrator().get_target_accuracy() == 1e-3
