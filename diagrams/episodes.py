@@ -107,7 +107,8 @@ def _analytical_player(builder: DiagramBuilder, world: World, controller,
     config = PlannerConfig(target_x=scenario.referee.target_x, target_y=scenario.referee.target_y)
     player = builder.AddNamedSystem("analytical_player",
                                     (player_type or AnalyticalPlayer)(StrokePlanner(config=config),
-                                                                      setpoint_lead=SETPOINT_LEAD))
+                                                                      setpoint_lead=SETPOINT_LEAD,
+                                                                      setpoint_period=SERVO_PERIOD))
     builder.Connect(estimator.GetOutputPort("state"), player.GetInputPort("estimated_state"))
     if estimator.HasOutputPort("spin"):  # the oracle's (and the spin-aware EKF's)
         builder.Connect(estimator.GetOutputPort("spin"), player.GetInputPort("estimated_spin"))
@@ -229,7 +230,8 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     crkr = learned.get("crkr")
     player = builder.AddNamedSystem("momp_player", MoMPTrajectorySource(
         learned.get("library"), learned.get("stages"), arm=HittingIK(),
-        setpoint_lead=SETPOINT_LEAD, stimulus=None if crkr is None else crkr.stimulus,
+        setpoint_lead=SETPOINT_LEAD, setpoint_period=SERVO_PERIOD,
+        stimulus=None if crkr is None else crkr.stimulus,
         config=momp_config(scenario.learned.moving_goal)))
     # The measured arm: the player holds when the arm no longer follows its plan.
     builder.Connect(world.plant.get_state_output_port(world.robot),

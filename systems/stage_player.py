@@ -12,20 +12,35 @@ The desired-value ports share one plan evaluation per (plan, time), an O(1) poly
 evaluation (DESIGN.md). In the serve diagram ``setpoint`` feeds the controller through the
 servo's zero-order hold (:func:`tt_drake.systems.wam.add_servo_hold`), so it is evaluated once per
 servo tick, at ``t + setpoint_lead`` (half a tick: the held value is the plan at the middle of
-its tick).
+its tick). With ``setpoint_period`` (the servo's), ``setpoint`` is read from a table of the plan
+at the next :data:`SETPOINT_TABLE_TICKS` servo ticks, computed in one vectorised evaluation
+(:meth:`tt_drake.stages.StagePlan.evaluate_many`, the same numbers as one evaluation per tick)
+when a tick finds a new plan or runs past the table: a servo tick then costs one row copy
+(docs/performance.md, fifth pass).
 """
 
+import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from tt_drake.stages import STAGES, StagePlan
 
+# Servo ticks per set-point table (64 ms at 500 Hz): a momp serve re-plans ~13 times over ~760
+# ticks, the teacher ~34 times (its corrections), so most tables are used to their end.
+SETPOINT_TABLE_TICKS = 32
+
 
 class StagePlanPlayer(LeafSystem):
-    def __init__(self, setpoint_lead: float = 0.0):
+    def __init__(self, setpoint_lead: float = 0.0, setpoint_period: float | None = None):
+        """``setpoint_lead``: the ports evaluate the plan at ``t + setpoint_lead``.
+        ``setpoint_period``: the servo period whose ticks (k * period) sample ``setpoint``;
+        with it the set-points are tabulated (module docstring); None: evaluated per call."""
         super().__init__()
         self._memo = None
+        self._table = None  # (plan, first tick index, (K, 21) set-points)
         self.setpoint_lead = float(setpoint_lead)
+        self.setpoint_period = None if setpoint_period is None else float(setpoint_period)
+        self.table_ticks = SETPOINT_TABLE_TICKS
         self.DeclareVectorOutputPort("desired_state", BasicVector(14), self._calc_state)
         self.DeclareVectorOutputPort("desired_acceleration", BasicVector(7), self._calc_accel)
         self.DeclareVectorOutputPort("setpoint", BasicVector(21), self._calc_setpoint)
@@ -64,7 +79,34 @@ class StagePlanPlayer(LeafSystem):
     def _calc_accel(self, context, output):
         output.get_mutable_value()[:] = self._evaluate(context)[2]
 
+    def _tabled(self, plan, now: float):
+        """The 21 set-point values of ``plan`` at the servo tick ``now`` from the table (made
+        anew if ``plan`` is not the table's or ``now`` is past its end), or None when ``now`` is
+        not a servo tick or there is no table (no ``setpoint_period``, a plan without
+        ``evaluate_many``)."""
+        period = self.setpoint_period
+        if period is None or not self.table_ticks:
+            return None
+        k = round(now / period)
+        if k * period != now:  # the simulator's tick times are k * period exactly
+            return None
+        table = self._table
+        if table is not None and table[0] is plan:
+            i = k - table[1]
+            if 0 <= i < table[2].shape[0]:
+                return table[2][i]
+        if not hasattr(plan, "evaluate_many"):
+            return None
+        times = (k + np.arange(self.table_ticks)) * period + self.setpoint_lead
+        rows = np.hstack(plan.evaluate_many(times))
+        self._table = (plan, k, rows)
+        return rows[0]
+
     def _calc_setpoint(self, context, output):
+        row = self._tabled(self.player_state(context).plan, context.get_time())
+        if row is not None:
+            output.get_mutable_value()[:] = row
+            return
         q, qd, qdd = self._evaluate(context)
         out = output.get_mutable_value()
         out[:7] = q
