@@ -80,7 +80,7 @@ from tt_drake.stages import (
 )
 from tt_drake.stimulus import PAPER_STIMULUS, compose_stimulus, stimulus_layout, stimulus_size
 from tt_drake.systems.immutable import Immutable
-from tt_drake.systems.stage_player import StagePlanPlayer, remaining
+from tt_drake.systems.stage_player import PlanTable, StagePlanPlayer, remaining
 
 # A planning tick that finds nothing new (committed, no valid configuration, a prediction already
 # acted on) changes no state: "did nothing" tells the simulator not to write the state back, so
@@ -208,6 +208,8 @@ class MoMPTrajectorySource(StagePlanPlayer):
         # The measured arm state (q, q_dot), for the hold (MoMPConfig.hold_error); optional.
         self._arm_state = self.DeclareVectorInputPort("arm_state", 14)
         self._index = self.DeclareAbstractState(AbstractValue.Make(_State(self.awaiting_plan())))
+        # The plan's positions at the planning ticks, for the hold's check (one table per plan).
+        self._planned = PlanTable(1.0 / rate)
         # On the planning ticks: a new prediction is acted on at the first tick after it.
         self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, self._update)
         self.DeclareForcedUnrestrictedUpdateEvent(self._update)
@@ -340,8 +342,10 @@ class MoMPTrajectorySource(StagePlanPlayer):
         if cfg.hold_error is None or not self._arm_state.HasValue(context):
             return False
         x = self._arm_state.Eval(context)
-        if (np.all(np.abs(x[7:]) <= cfg.hold_speed * self.limits.velocity)
-                and float(np.abs(x[:7] - old.plan.evaluate(now)[0]).max()) <= cfg.hold_error):
+        planned = self._planned.row(old.plan, now)
+        q = old.plan.evaluate(now)[0] if planned is None else planned[:7]
+        if ((np.abs(x[7:]) <= cfg.hold_speed * self.limits.velocity).all()
+                and float(np.abs(x[:7] - q).max()) <= cfg.hold_error):
             return False
         stroke = None if old.stroke is None else replace(old.stroke, held=True)
         state.get_mutable_abstract_state(self._index).set_value(

@@ -30,6 +30,43 @@ from tt_drake.stages import STAGES, StagePlan
 SETPOINT_TABLE_TICKS = 32
 
 
+class PlanTable:
+    """A plan's (q, q_dot, q_ddot) at the ticks ``k * period`` of a periodic event, evaluated at
+    ``k * period + lead``: made for the next ``ticks`` ticks at once
+    (:meth:`tt_drake.stages.StagePlan.evaluate_many`, the same numbers as one ``evaluate`` per
+    tick) when a tick finds another plan than the table's or runs past its end."""
+
+    def __init__(self, period: float, lead: float = 0.0, ticks: int = SETPOINT_TABLE_TICKS):
+        self.period, self.lead, self.ticks = float(period), float(lead), int(ticks)
+        self._table = None  # (plan, first tick index, (ticks, 3 n_dof) values)
+
+    @property
+    def plan(self):
+        """The plan of the table made last (None before the first)."""
+        return None if self._table is None else self._table[0]
+
+    def row(self, plan, now: float):
+        """``np.hstack(plan.evaluate(now + lead))`` when ``now`` is a tick (the simulator's
+        periodic event times are k * period exactly), from the table; None when it is not a
+        tick, ``ticks`` is 0 (off) or ``plan`` has no ``evaluate_many``."""
+        if not self.ticks:
+            return None
+        period = self.period
+        k = round(now / period)
+        if k * period != now:
+            return None
+        table = self._table
+        if table is not None and table[0] is plan:
+            i = k - table[1]
+            if 0 <= i < table[2].shape[0]:
+                return table[2][i]
+        if not hasattr(plan, "evaluate_many"):
+            return None
+        rows = np.hstack(plan.evaluate_many((k + np.arange(self.ticks)) * period + self.lead))
+        self._table = (plan, k, rows)
+        return rows[0]
+
+
 class StagePlanPlayer(LeafSystem):
     def __init__(self, setpoint_lead: float = 0.0, setpoint_period: float | None = None):
         """``setpoint_lead``: the ports evaluate the plan at ``t + setpoint_lead``.
@@ -37,10 +74,10 @@ class StagePlanPlayer(LeafSystem):
         with it the set-points are tabulated (module docstring); None: evaluated per call."""
         super().__init__()
         self._memo = None
-        self._table = None  # (plan, first tick index, (K, 21) set-points)
         self.setpoint_lead = float(setpoint_lead)
         self.setpoint_period = None if setpoint_period is None else float(setpoint_period)
-        self.table_ticks = SETPOINT_TABLE_TICKS
+        self.setpoint_table = (None if setpoint_period is None
+                               else PlanTable(setpoint_period, self.setpoint_lead))
         self.DeclareVectorOutputPort("desired_state", BasicVector(14), self._calc_state)
         self.DeclareVectorOutputPort("desired_acceleration", BasicVector(7), self._calc_accel)
         self.DeclareVectorOutputPort("setpoint", BasicVector(21), self._calc_setpoint)
@@ -79,31 +116,10 @@ class StagePlanPlayer(LeafSystem):
     def _calc_accel(self, context, output):
         output.get_mutable_value()[:] = self._evaluate(context)[2]
 
-    def _tabled(self, plan, now: float):
-        """The 21 set-point values of ``plan`` at the servo tick ``now`` from the table (made
-        anew if ``plan`` is not the table's or ``now`` is past its end), or None when ``now`` is
-        not a servo tick or there is no table (no ``setpoint_period``, a plan without
-        ``evaluate_many``)."""
-        period = self.setpoint_period
-        if period is None or not self.table_ticks:
-            return None
-        k = round(now / period)
-        if k * period != now:  # the simulator's tick times are k * period exactly
-            return None
-        table = self._table
-        if table is not None and table[0] is plan:
-            i = k - table[1]
-            if 0 <= i < table[2].shape[0]:
-                return table[2][i]
-        if not hasattr(plan, "evaluate_many"):
-            return None
-        times = (k + np.arange(self.table_ticks)) * period + self.setpoint_lead
-        rows = np.hstack(plan.evaluate_many(times))
-        self._table = (plan, k, rows)
-        return rows[0]
-
     def _calc_setpoint(self, context, output):
-        row = self._tabled(self.player_state(context).plan, context.get_time())
+        table = self.setpoint_table
+        row = None if table is None else table.row(self.player_state(context).plan,
+                                                   context.get_time())
         if row is not None:
             output.get_mutable_value()[:] = row
             return

@@ -56,10 +56,10 @@ def toggles(diagram: ServeDiagram) -> dict:
         name = next(n for n in _PLAYERS if diagram.diagram.HasSubsystemNamed(n))
         return diagram.diagram.GetSubsystemByName(name)
 
-    ticks = player().table_ticks
+    ticks = player().setpoint_table.ticks
 
     def setpoint_table(on: bool) -> None:
-        player().table_ticks = ticks if on else 0  # 0: one plan evaluation per servo tick
+        player().setpoint_table.ticks = ticks if on else 0  # 0: one evaluation per servo tick
 
     momp = importlib.import_module("tt_drake.systems.momp_player")
     momp_nothing = momp._NOTHING

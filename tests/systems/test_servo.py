@@ -129,13 +129,34 @@ def test_tabled_setpoints_are_the_plans_values_across_a_replan():
     np.testing.assert_array_equal(tabled, per_tick)
     context = player.GetMyContextFromRoot(root)
     plan = player.player_state(context).plan
-    assert plan is not PLAN and player._table[0] is plan  # the re-plan's table was read
+    assert plan is not PLAN and player.setpoint_table.plan is plan  # the re-plan's table was read
     np.testing.assert_allclose(tabled[-1, :7], Q0 - 0.2, atol=1e-9)  # the re-plan's end, at rest
     np.testing.assert_allclose(tabled[-1, 7:], 0.0, atol=1e-9)
     off_tick = 0.1007  # inside the re-plan, between two ticks
     root.SetTime(off_tick)
     np.testing.assert_array_equal(player.GetOutputPort("setpoint").Eval(context),
                                   np.hstack(plan.evaluate(off_tick + 0.5 * H)))
+
+
+def test_plan_table_rows_are_the_plans_values_at_the_ticks():
+    """PlanTable (the MoMP hold's check reads one at the 250 Hz planning ticks, lead 0): at a
+    tick k * period its row is the plan's (q, q_dot, q_ddot) to the last bit, past the table's
+    end and for another plan too; off the ticks, or switched off, it has no row."""
+    from tt_drake.systems.stage_player import PlanTable
+
+    period = 2 * H
+    table = PlanTable(period, ticks=8)
+    replanned = StagePlan(PLAN.truncated(0.1).segments
+                          + [(HITTING, Quintic.fit(0.1, 0.1, *PLAN.evaluate(0.1), Q0,
+                                                   np.zeros(7), np.zeros(7)))])
+    for plan, ks in ((PLAN, range(0, 30)), (replanned, range(25, 70))):
+        for k in ks:
+            np.testing.assert_array_equal(table.row(plan, k * period),
+                                          np.hstack(plan.evaluate(k * period)))
+        assert table.plan is plan
+    assert table.row(replanned, 0.1001) is None
+    table.ticks = 0
+    assert table.row(replanned, 0.1) is None
 
 
 class CountingModel:
