@@ -17,12 +17,15 @@ after the other do not. Levers:
   state back);
 - ``setpoint-table``: the player's servo set-points read from a table made once per plan and
   32 ticks (``StagePlanPlayer.setpoint_period``) against one plan evaluation per servo tick;
+- ``hold-table``: the MoMP hold's check reads the plan's positions at the planning ticks from
+  a table made per plan and 32 ticks against one plan evaluation per tick;
 - ``momp-did-nothing``: the MoMP player's planning ticks without anything new return
   ``EventStatus.DidNothing`` against returning nothing.
 
 It also counts the serves whose outcome and episode duration are equal both ways (``did-nothing``,
-``setpoint-table`` and ``momp-did-nothing`` change no number; ``segments`` may move the
-integrator's steps, and the outcome check for it is ``compare_serves.py`` on 100 serves).
+``setpoint-table``, ``hold-table`` and ``momp-did-nothing`` change no number; ``segments`` may
+move the integrator's steps, and the outcome check for it is ``compare_serves.py`` on 100
+serves).
 """
 
 from __future__ import annotations
@@ -61,6 +64,9 @@ def toggles(diagram: ServeDiagram) -> dict:
     def setpoint_table(on: bool) -> None:
         player().setpoint_table.ticks = ticks if on else 0  # 0: one evaluation per servo tick
 
+    def hold_table(on: bool) -> None:
+        player()._planned.ticks = ticks if on else 0
+
     momp = importlib.import_module("tt_drake.systems.momp_player")
     momp_nothing = momp._NOTHING
 
@@ -68,12 +74,12 @@ def toggles(diagram: ServeDiagram) -> dict:
         momp._NOTHING = momp_nothing if on else None
 
     return {"segments": segments, "did-nothing": did_nothing, "setpoint-table": setpoint_table,
-            "momp-did-nothing": momp_did_nothing}
+            "hold-table": hold_table, "momp-did-nothing": momp_did_nothing}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("lever", choices=("segments", "did-nothing", "setpoint-table",
+    ap.add_argument("lever", choices=("segments", "did-nothing", "setpoint-table", "hold-table",
                                       "momp-did-nothing"))
     ap.add_argument("--player", default="momp")
     ap.add_argument("--serves", type=int, default=12)
