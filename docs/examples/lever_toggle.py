@@ -20,7 +20,8 @@ after the other do not. Levers:
 - ``hold-table``: the MoMP hold's check reads the plan's positions at the planning ticks from
   a table made per plan and 32 ticks against one plan evaluation per tick;
 - ``momp-did-nothing``: the MoMP player's planning ticks without anything new return
-  ``EventStatus.DidNothing`` against returning nothing.
+  ``EventStatus.DidNothing`` against returning nothing;
+- ``fifth-pass``: the last three together.
 
 It also counts the serves whose outcome and episode duration are equal both ways (``did-nothing``,
 ``setpoint-table``, ``hold-table`` and ``momp-did-nothing`` change no number; ``segments`` may
@@ -73,14 +74,19 @@ def toggles(diagram: ServeDiagram) -> dict:
     def momp_did_nothing(on: bool) -> None:
         momp._NOTHING = momp_nothing if on else None
 
+    def fifth_pass(on: bool) -> None:
+        for lever in (setpoint_table, hold_table, momp_did_nothing):
+            lever(on)
+
     return {"segments": segments, "did-nothing": did_nothing, "setpoint-table": setpoint_table,
-            "hold-table": hold_table, "momp-did-nothing": momp_did_nothing}
+            "hold-table": hold_table, "momp-did-nothing": momp_did_nothing,
+            "fifth-pass": fifth_pass}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("lever", choices=("segments", "did-nothing", "setpoint-table", "hold-table",
-                                      "momp-did-nothing"))
+                                      "momp-did-nothing", "fifth-pass"))
     ap.add_argument("--player", default="momp")
     ap.add_argument("--serves", type=int, default=12)
     ap.add_argument("--seed", type=int, default=3)
