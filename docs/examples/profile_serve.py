@@ -26,7 +26,7 @@ PARTS = [
     ("hitting-point predictor (_update)", "hitting_point_predictor.py", "_update"),
     ("MoMP planning tick (_update)", "momp_player.py", "_update"),
     ("analytical planning tick (_update)", "analytical_player.py", "_update"),
-    ("servo holds' set-points (StagePlanPlayer)", "stage_player.py", "_evaluate"),
+    ("servo holds' set-points (StagePlanPlayer)", "stage_player.py", "_calc_setpoint"),
     ("referee (_update)", "referee.py", "_update"),
     ("aerodynamics / launcher / camera (Python)", "camera.py", "_update"),
 ]
