@@ -35,9 +35,8 @@ from tt_drake.systems.world import (
     World,
     add_world,
     advance_in_segments,
-    contact_accuracy,
-    make_simulator,
     set_ball_state,
+    simulator_and_schedule,
 )
 from tt_drake.wam_params import SERVO_PERIOD
 
@@ -107,7 +106,8 @@ def _analytical_player(builder: DiagramBuilder, world: World, controller,
     config = PlannerConfig(target_x=scenario.referee.target_x, target_y=scenario.referee.target_y)
     player = builder.AddNamedSystem("analytical_player",
                                     (player_type or AnalyticalPlayer)(StrokePlanner(config=config),
-                                                                      setpoint_lead=SETPOINT_LEAD))
+                                                                      setpoint_lead=SETPOINT_LEAD,
+                                                                      setpoint_period=SERVO_PERIOD))
     builder.Connect(estimator.GetOutputPort("state"), player.GetInputPort("estimated_state"))
     if estimator.HasOutputPort("spin"):  # the oracle's (and the spin-aware EKF's)
         builder.Connect(estimator.GetOutputPort("spin"), player.GetInputPort("estimated_spin"))
@@ -229,7 +229,8 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     crkr = learned.get("crkr")
     player = builder.AddNamedSystem("momp_player", MoMPTrajectorySource(
         learned.get("library"), learned.get("stages"), arm=HittingIK(),
-        setpoint_lead=SETPOINT_LEAD, stimulus=None if crkr is None else crkr.stimulus,
+        setpoint_lead=SETPOINT_LEAD, setpoint_period=SERVO_PERIOD,
+        stimulus=None if crkr is None else crkr.stimulus,
         config=momp_config(scenario.learned.moving_goal)))
     # The measured arm: the player holds when the arm no longer follows its plan.
     builder.Connect(world.plant.get_state_output_port(world.robot),
@@ -411,11 +412,10 @@ class ServeDiagram:
                                 self.prediction_logger.get_input_port())
         self.diagram = builder.Build()
         self.diagram.set_name("serve_diagram")
-        self.simulator = make_simulator(self.diagram, scenario.world)
         # The episodes decide the integrator's accuracy once per referee tick (advance_in_segments)
-        # rather than through the simulator's monitor after every step; the monitor stays attached
-        # for whoever steps this simulator directly (the Gymnasium env).
-        self._schedule = contact_accuracy(self.simulator, self.diagram, scenario.world)
+        # rather than through the simulator's monitor after every step; the monitor (the same
+        # schedule) stays attached for whoever steps this simulator directly.
+        self.simulator, self._schedule = simulator_and_schedule(self.diagram, scenario.world)
         self._segment = period
         self.context = self.simulator.get_mutable_context()
         self._set_awaiting_posture()
@@ -523,14 +523,14 @@ class ServeDiagram:
         if end > self.context.get_time():
             self.advance(end)
 
-    def advance(self, end: float) -> None:
+    def advance(self, end: float):
         """Simulate to ``end``, or until a system ends the episode (the referee), with the
         accuracy decided once per referee tick (:func:`advance_in_segments`) as the episodes
-        do: whoever continues an episode (the Gymnasium env) gets the same numbers."""
+        do: whoever continues an episode (the Gymnasium envs) gets the same numbers. Returns
+        the simulator's status (``AdvanceTo``'s)."""
         if self._schedule is None:
-            self.simulator.AdvanceTo(end)
-        else:
-            advance_in_segments(self.simulator, self._schedule, end, self._segment)
+            return self.simulator.AdvanceTo(end)
+        return advance_in_segments(self.simulator, self._schedule, end, self._segment)
 
     def poses(self) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """The logged times (K,), ball positions (K, 7: quaternion w, x, y, z, then p) and arm

@@ -207,6 +207,21 @@ def _setpoint_player(builder, world, controller, scenario: Scenario, rate: float
     return seeded
 
 
+class _EpisodeSimulator:
+    """The serve diagram's simulator as ``DrakeGymEnv`` uses it, except that ``AdvanceTo``
+    advances as the serve episodes do (:meth:`ServeDiagram.advance`: the integrator's accuracy
+    decided once per referee tick instead of by the monitor after every step)."""
+
+    def __init__(self, serve_diagram: ServeDiagram):
+        self._serve_diagram = serve_diagram
+
+    def AdvanceTo(self, end: float):  # noqa: N802 (Drake's name)
+        return self._serve_diagram.advance(end)
+
+    def __getattr__(self, name):
+        return getattr(self._serve_diagram.simulator, name)
+
+
 class ReturnBallStepEnv(DrakeGymEnv):
     """Step-based: joint set-point increments at ``control_rate`` Hz (module docstring)."""
 
@@ -235,6 +250,7 @@ class ReturnBallStepEnv(DrakeGymEnv):
                          observation_port_id="observations", reset_handler=self._start_serve,
                          render_mode=None)
         self.metadata = {"render_modes": []}  # those modes need a visualizer in the diagram
+        self.simulator = _EpisodeSimulator(self.serve_diagram)
         self._options = None
         self._serve_seed = None
         self._t_end = np.inf

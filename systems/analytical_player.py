@@ -303,8 +303,9 @@ class AnalyticalPlayer(StagePlanPlayer):
     it. Without it (``serve``) the player stays committed to its one stroke."""
 
     def __init__(self, planner: StrokePlanner | None = None, rate: float = wp.PLANNING_RATE,
-                 setpoint_lead: float = 0.0, corrections: bool = True, play_again: bool = False):
-        super().__init__(setpoint_lead)
+                 setpoint_lead: float = 0.0, corrections: bool = True, play_again: bool = False,
+                 setpoint_period: float | None = None):
+        super().__init__(setpoint_lead, setpoint_period)
         self.planner = planner or StrokePlanner()
         self.corrections = corrections
         self.play_again = play_again

@@ -57,6 +57,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import EventStatus
 
 from tt_drake import wam_params as wp
 from tt_drake.learned_player import (
@@ -79,7 +80,12 @@ from tt_drake.stages import (
 )
 from tt_drake.stimulus import PAPER_STIMULUS, compose_stimulus, stimulus_layout, stimulus_size
 from tt_drake.systems.immutable import Immutable
-from tt_drake.systems.stage_player import StagePlanPlayer, remaining
+from tt_drake.systems.stage_player import PlanTable, StagePlanPlayer, remaining
+
+# A planning tick that finds nothing new (committed, no valid configuration, a prediction already
+# acted on) changes no state: "did nothing" tells the simulator not to write the state back, so
+# the caches of everything downstream (the set-points) stay valid.
+_NOTHING = EventStatus.DidNothing()
 
 # The moving goal's cut-off (s before the hit) when the scenario turns it on: the teacher's.
 MOVING_GOAL_CUTOFF = 0.08
@@ -171,11 +177,13 @@ def joint_limits() -> JointLimits:
 class MoMPTrajectorySource(StagePlanPlayer):
     def __init__(self, library: MotorPrimitiveLibrary | None, stages: dict | None,
                  config: MoMPConfig | None = None, rate: float = wp.PLANNING_RATE, q_await=None,
-                 arm=None, setpoint_lead: float = 0.0, stimulus=None, play_again: bool = False):
+                 arm=None, setpoint_lead: float = 0.0, stimulus=None, play_again: bool = False,
+                 setpoint_period: float | None = None):
         """``play_again`` (the rally): after the planned hit, once the predictor has dropped its
         prediction (it saw the ball fly away: ``HittingPointPredictor.play_again``), the
-        player is free again for the next ball, as ``AnalyticalPlayer.play_again``."""
-        super().__init__(setpoint_lead)
+        player is free again for the next ball, as ``AnalyticalPlayer.play_again``.
+        ``setpoint_lead``, ``setpoint_period``: :class:`StagePlanPlayer`."""
+        super().__init__(setpoint_lead, setpoint_period)
         self.play_again = play_again
         # The stimulus layout: the library's if it names one; else ``stimulus`` (for the crkr
         # player the configuration model's, so that its strokes can train it), else the paper's.
@@ -200,6 +208,8 @@ class MoMPTrajectorySource(StagePlanPlayer):
         # The measured arm state (q, q_dot), for the hold (MoMPConfig.hold_error); optional.
         self._arm_state = self.DeclareVectorInputPort("arm_state", 14)
         self._index = self.DeclareAbstractState(AbstractValue.Make(_State(self.awaiting_plan())))
+        # The plan's positions at the planning ticks, for the hold's check (one table per plan).
+        self._planned = PlanTable(1.0 / rate)
         # On the planning ticks: a new prediction is acted on at the first tick after it.
         self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, self._update)
         self.DeclareForcedUnrestrictedUpdateEvent(self._update)
@@ -232,13 +242,14 @@ class MoMPTrajectorySource(StagePlanPlayer):
         old = self.player_state(context)
         now = context.get_time()
         if self._hold_if_lost(context, state, old, now):
-            return
+            return None
         if old.committed:
             if (self.play_again and old.stroke is not None and now > old.stroke.t_hit
                     and self._valid.Eval(context)[0] < 0.5):
                 state.get_mutable_abstract_state(self._index).set_value(
                     _State(remaining(old.plan, now), None, False, old.seen))
-            return
+                return None
+            return _NOTHING
         plan = old.plan
         hit = next((seg for stage, seg in plan.segments if stage == HITTING), None)
         if hit is not None and now >= hit.t0:  # the hitting stage has begun
@@ -247,24 +258,23 @@ class MoMPTrajectorySource(StagePlanPlayer):
                     or now > old.stroke.t_hit - cutoff):  # no more re-plans
                 state.get_mutable_abstract_state(self._index).set_value(
                     _State(plan, old.stroke, committed=True))
-            else:
-                self._move_goal(context, state, old, now)
-            return
+                return None
+            return self._move_goal(context, state, old, now)
         if self._valid.Eval(context)[0] < 0.5:
-            return
+            return _NOTHING
         p_hit, t_hit = self._p.Eval(context), float(self._t.Eval(context)[0])
         seen = (t_hit, float(p_hit[0]), float(p_hit[1]), float(p_hit[2]))
         if seen == old.seen:
-            return
+            return _NOTHING
         # From here on this prediction has been acted on, whether or not a plan comes of it.
         abstract = state.get_mutable_abstract_state(self._index)
         abstract.set_value(_State(plan, old.stroke, False, seen))
         v_hit = self._v.Eval(context)
         q_hit, qd_hit = self._q_hit.Eval(context), self._qd_hit.Eval(context)
         if t_hit - now < self.config.min_time_to_hit:
-            return
+            return None
         if not self._needs_replan(old.stroke, p_hit, t_hit, q_hit, qd_hit):
-            return
+            return None
         spin = self._spin.Eval(context) if self._spin.HasValue(context) else None
         x = compose_stimulus(self.stimulus, p_hit, v_hit, spin)
         preparing = plan.stage_at(now) == PREPARATION
@@ -283,26 +293,26 @@ class MoMPTrajectorySource(StagePlanPlayer):
         abstract.set_value(_State(StagePlan(plan.truncated(now).segments + new.segments), stroke,
                                   False, seen))
 
-    def _move_goal(self, context, state, old: _State, now: float) -> None:
+    def _move_goal(self, context, state, old: _State, now: float):
         """During the hitting stage, before the cut-off: a prediction that differs from the
         stroke's goal (re-planning thresholds) moves the hitting DMP's goal if the plan that
         comes of it stays inside the joint and effort limits; otherwise the stroke keeps its
         goal and the move is tried again at the next tick (a re-plan refused before the hitting
         stage is tried here too); with ``retry_period``, only once the prediction or
         configuration has moved past the re-planning thresholds since the refusal, or that long
-        after it."""
+        after it. Returns :data:`_NOTHING` when it changes no state."""
         if self._valid.Eval(context)[0] < 0.5:
-            return
+            return _NOTHING
         p_hit, t_hit = self._p.Eval(context), float(self._t.Eval(context)[0])
         seen = (t_hit, float(p_hit[0]), float(p_hit[1]), float(p_hit[2]))
         q_hit, qd_hit = self._q_hit.Eval(context), self._qd_hit.Eval(context)
         if (t_hit - now < self.config.goal_cutoff
                 or not self._needs_replan(old.stroke, p_hit, t_hit, q_hit, qd_hit)):
-            return
+            return _NOTHING
         period = self.config.retry_period
         if (old.refused is not None and period is not None and now - old.refused[0] < period
                 and not self._moved(old.refused[1:], p_hit, t_hit, q_hit, qd_hit)):
-            return
+            return _NOTHING
         refused = _State(old.plan, old.stroke, False, old.seen,
                          (now, np.array(p_hit), t_hit, np.array(q_hit), np.array(qd_hit)))
         spin = self._spin.Eval(context) if self._spin.HasValue(context) else None
@@ -313,11 +323,11 @@ class MoMPTrajectorySource(StagePlanPlayer):
                                              self.limits, self.config.times)
         except ValueError:
             state.get_mutable_abstract_state(self._index).set_value(refused)
-            return
+            return None
         ahead = StagePlan([(s, seg) for s, seg in new.segments if seg.t0 >= now])
         if not (within_limits(ahead, self.limits) and self._within_effort(new, now)):
             state.get_mutable_abstract_state(self._index).set_value(refused)
-            return
+            return None
         stroke = MoMPStroke(x, t_hit, np.array(q_hit), np.array(qd_hit), idx, nu,
                             old.stroke.replans + 1, False)
         state.get_mutable_abstract_state(self._index).set_value(_State(new, stroke, False, seen))
@@ -332,8 +342,10 @@ class MoMPTrajectorySource(StagePlanPlayer):
         if cfg.hold_error is None or not self._arm_state.HasValue(context):
             return False
         x = self._arm_state.Eval(context)
-        if (np.all(np.abs(x[7:]) <= cfg.hold_speed * self.limits.velocity)
-                and float(np.abs(x[:7] - old.plan.evaluate(now)[0]).max()) <= cfg.hold_error):
+        planned = self._planned.row(old.plan, now)
+        q = old.plan.evaluate(now)[0] if planned is None else planned[:7]
+        if ((np.abs(x[7:]) <= cfg.hold_speed * self.limits.velocity).all()
+                and float(np.abs(x[:7] - q).max()) <= cfg.hold_error):
             return False
         stroke = None if old.stroke is None else replace(old.stroke, held=True)
         state.get_mutable_abstract_state(self._index).set_value(

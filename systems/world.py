@@ -137,6 +137,12 @@ def set_ball_state(world: World, plant_context, launch_state) -> None:
 def make_simulator(diagram, config: WorldConfig) -> Simulator:
     """A simulator of ``diagram`` at ``config.simulator``; with ``config.flight_accuracy`` > 0
     also the :class:`ContactAccuracy` monitor (the diagram's plant must be named ``plant``)."""
+    return simulator_and_schedule(diagram, config)[0]
+
+
+def simulator_and_schedule(diagram, config: WorldConfig):
+    """:func:`make_simulator` and its monitor's :class:`ContactAccuracy` (None without one), for
+    whoever also advances in segments (:func:`advance_in_segments`) with the same schedule."""
     from pydrake.systems.analysis import ApplySimulatorConfig
 
     simulator = Simulator(diagram)
@@ -144,7 +150,7 @@ def make_simulator(diagram, config: WorldConfig) -> Simulator:
     schedule = contact_accuracy(simulator, diagram, config)
     if schedule is not None:
         simulator.set_monitor(schedule)
-    return simulator
+    return simulator, schedule
 
 
 def contact_accuracy(simulator: Simulator, diagram, config: WorldConfig):

@@ -122,14 +122,16 @@ class SampledSegment:
         s = np.clip(t - self.t0, 0.0, self.duration)
         k = np.minimum((s / self.dt).astype(int), self._n - 1)
         u = s - k * self.dt
-        one, zero = np.ones_like(u), np.zeros_like(u)
         u2 = u * u
         u3 = u2 * u
         u4 = u3 * u
-        powers = np.stack([np.stack(row, axis=-1) for row in (
-            (one, zero, zero), (u, one, zero), (u2, 2.0 * u, 2.0 * one),
-            (u3, 3.0 * u2, 6.0 * u), (u4, 4.0 * u3, 12.0 * u2),
-            (u4 * u, 5.0 * u4, 20.0 * u3))], axis=1)  # (K, 6, 3)
+        powers = np.empty((u.size, 6, 3))  # (K, 6, 3), the rows of ``evaluate``'s matrix
+        powers[:, 0] = (1.0, 0.0, 0.0)
+        powers[:, 1, 0], powers[:, 1, 1], powers[:, 1, 2] = u, 1.0, 0.0
+        powers[:, 2, 0], powers[:, 2, 1], powers[:, 2, 2] = u2, 2.0 * u, 2.0
+        powers[:, 3, 0], powers[:, 3, 1], powers[:, 3, 2] = u3, 3.0 * u2, 6.0 * u
+        powers[:, 4, 0], powers[:, 4, 1], powers[:, 4, 2] = u4, 4.0 * u3, 12.0 * u2
+        powers[:, 5, 0], powers[:, 5, 1], powers[:, 5, 2] = u4 * u, 5.0 * u4, 20.0 * u3
         r = self.coeffs[k] @ powers  # (K, D, 3)
         q, v, a = r[:, :, 0], r[:, :, 1], r[:, :, 2]
         return continue_past_end((t - self.t_end)[:, None], q, v, a)

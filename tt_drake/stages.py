@@ -137,6 +137,30 @@ class StagePlan:
     def evaluate(self, t: float):
         return self.segment_at(t).evaluate(t)
 
+    def evaluate_many(self, times) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`evaluate` at every time of ``times`` (K,): (q, q_dot, q_ddot), each (K, n_dof).
+        Each time goes to the segment :meth:`segment_at` picks, and each segment's times are
+        evaluated at once (:func:`evaluate_segment_many`)."""
+        t = np.asarray(times, dtype=float)
+        left = np.ones(t.shape, dtype=bool)
+        parts = []
+        first, last = t.min(), len(self.segments) - 1
+        for i, (_, seg) in enumerate(self.segments):
+            if i < last and seg.t_end <= first:
+                continue  # over before every time
+            mine = left if i == last else left & (t < seg.t_end)
+            if mine.any():
+                parts.append((mine, evaluate_segment_many(seg, t[mine])))
+                left = left & ~mine
+                if not left.any():
+                    break
+        n_dof = parts[0][1][0].shape[1]
+        out = tuple(np.empty((t.size, n_dof)) for _ in range(3))
+        for mine, values in parts:
+            for o, v in zip(out, values, strict=True):
+                o[mine] = v
+        return out
+
     def truncated(self, t: float) -> StagePlan:
         """The part of the plan executed before ``t``: segments that started earlier, the one under
         way cut to end at ``t`` (to be followed by a re-plan from the state at ``t``)."""

@@ -1,4 +1,5 @@
-"""A lever on and off in one process, serve by serve (docs/performance.md, fourth pass).
+"""A lever on and off in one process, serve by serve (docs/performance.md, fourth and fifth
+passes).
 
     OPENBLAS_NUM_THREADS=1 python docs/examples/lever_toggle.py segments [--player momp]
         [--serves 12] [--seed 3]
@@ -13,11 +14,19 @@ after the other do not. Levers:
   (``advance_in_segments``) against ContactAccuracy's monitor after every integrator step;
 - ``did-nothing``: the EKF's and the hitting-point predictor's ticks without anything new return
   ``EventStatus.DidNothing`` against returning nothing (the simulator then writes the unchanged
-  state back).
+  state back);
+- ``setpoint-table``: the player's servo set-points read from a table made once per plan and
+  32 ticks (``StagePlanPlayer.setpoint_period``) against one plan evaluation per servo tick;
+- ``hold-table``: the MoMP hold's check reads the plan's positions at the planning ticks from
+  a table made per plan and 32 ticks against one plan evaluation per tick;
+- ``momp-did-nothing``: the MoMP player's planning ticks without anything new return
+  ``EventStatus.DidNothing`` against returning nothing;
+- ``fifth-pass``: the last three together.
 
-It also counts the serves whose outcome and episode duration are equal both ways (``did-nothing``
-changes no number; ``segments`` may move the integrator's steps, and the outcome check for it is
-``compare_serves.py`` on 100 serves).
+It also counts the serves whose outcome and episode duration are equal both ways (``did-nothing``,
+``setpoint-table``, ``hold-table`` and ``momp-did-nothing`` change no number; ``segments`` may
+move the integrator's steps, and the outcome check for it is ``compare_serves.py`` on 100
+serves).
 """
 
 from __future__ import annotations
@@ -33,6 +42,7 @@ from tt_drake.models import use_artefact_set
 
 _DID_NOTHING_MODULES = ("tt_drake.systems.ball_flight_estimator",
                         "tt_drake.systems.hitting_point_predictor")
+_PLAYERS = ("momp_player", "analytical_player")  # the crkr player is "momp_player" too
 
 
 def toggles(diagram: ServeDiagram) -> dict:
@@ -46,12 +56,37 @@ def toggles(diagram: ServeDiagram) -> dict:
         for m, status in nothing.items():
             importlib.import_module(m)._NOTHING = status if on else None
 
-    return {"segments": segments, "did-nothing": did_nothing}
+    def player():
+        name = next(n for n in _PLAYERS if diagram.diagram.HasSubsystemNamed(n))
+        return diagram.diagram.GetSubsystemByName(name)
+
+    ticks = player().setpoint_table.ticks
+
+    def setpoint_table(on: bool) -> None:
+        player().setpoint_table.ticks = ticks if on else 0  # 0: one evaluation per servo tick
+
+    def hold_table(on: bool) -> None:
+        player()._planned.ticks = ticks if on else 0
+
+    momp = importlib.import_module("tt_drake.systems.momp_player")
+    momp_nothing = momp._NOTHING
+
+    def momp_did_nothing(on: bool) -> None:
+        momp._NOTHING = momp_nothing if on else None
+
+    def fifth_pass(on: bool) -> None:
+        for lever in (setpoint_table, hold_table, momp_did_nothing):
+            lever(on)
+
+    return {"segments": segments, "did-nothing": did_nothing, "setpoint-table": setpoint_table,
+            "hold-table": hold_table, "momp-did-nothing": momp_did_nothing,
+            "fifth-pass": fifth_pass}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("lever", choices=("segments", "did-nothing"))
+    ap.add_argument("lever", choices=("segments", "did-nothing", "setpoint-table", "hold-table",
+                                      "momp-did-nothing", "fifth-pass"))
     ap.add_argument("--player", default="momp")
     ap.add_argument("--serves", type=int, default=12)
     ap.add_argument("--seed", type=int, default=3)

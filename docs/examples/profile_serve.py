@@ -26,7 +26,7 @@ PARTS = [
     ("hitting-point predictor (_update)", "hitting_point_predictor.py", "_update"),
     ("MoMP planning tick (_update)", "momp_player.py", "_update"),
     ("analytical planning tick (_update)", "analytical_player.py", "_update"),
-    ("servo holds' set-points (StagePlanPlayer)", "stage_player.py", "_evaluate"),
+    ("servo holds' set-points (StagePlanPlayer)", "stage_player.py", "_calc_setpoint"),
     ("referee (_update)", "referee.py", "_update"),
     ("aerodynamics / launcher / camera (Python)", "camera.py", "_update"),
 ]
@@ -52,7 +52,8 @@ def main() -> None:
     total = time.process_time() - c0
     stats = pstats.Stats(prof)
     print(f"{args.player}: {1e3 * total / args.serves:.1f} CPU ms per serve under the profiler "
-          f"({args.serves} serves, seed {args.seed})")
+          f"({args.serves} serves, seed {args.seed}); {stats.total_calls / args.serves:.0f} "
+          f"Python calls per serve")
     cum = {}
     for (file, _, name), (_, _, _, ct, _) in stats.stats.items():
         for label, suffix, fn in PARTS:

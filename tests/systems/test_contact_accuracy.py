@@ -25,6 +25,21 @@ def test_make_simulator_attaches_the_schedule_only_when_asked(scheduled):
     assert plain.simulator.get_monitor() is None
 
 
+def test_the_episodes_schedule_is_the_simulators_monitor():
+    """``simulator_and_schedule`` (the serve episodes') makes one ContactAccuracy: the monitor
+    the simulator calls after each step is the schedule the episodes call per referee tick."""
+    from tt_drake.systems.world import simulator_and_schedule
+
+    world = BallOnlyWorld(config=WorldConfig(with_robot=False, flight_accuracy=1e-3))
+    simulator, schedule = simulator_and_schedule(world.diagram, world.config)
+    assert isinstance(schedule, ContactAccuracy) and schedule._root is None
+    simulator.AdvanceTo(0.01)  # the monitor runs after each step: it binds the schedule
+    assert schedule._root is not None
+    plain = WorldConfig(with_robot=False)
+    simulator, schedule = simulator_and_schedule(world.diagram, plain)
+    assert schedule is None and simulator.get_monitor() is None
+
+
 def test_flight_far_from_everything_uses_the_flight_accuracy(scheduled):
     # 1 m above the table, moving sideways: nothing within the 10 ms horizon.
     z = TABLE.surface_z + 1.0

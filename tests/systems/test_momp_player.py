@@ -140,6 +140,40 @@ def test_replans_from_the_current_state_until_the_hitting_stage():
     assert player.player_state(context).stroke.replans == 2
 
 
+def test_planning_ticks_without_anything_new_report_that_they_did_nothing():
+    """A tick with no valid configuration, with the prediction already acted on, or once
+    committed returns "did nothing" and leaves the state it was given as it was (the simulator
+    then skips writing it back); a tick with a new prediction, or the one that commits, does
+    not."""
+    from pydrake.systems.framework import EventStatus
+
+    nothing = EventStatus.Severity.kDidNothing
+    library, stages, stimuli = synthetic_library()
+    player = MoMPTrajectorySource(library, stages)
+    context = player.CreateDefaultContext()
+
+    def tick(t):
+        """(the update's status, whether it replaced the state) at ``t``, on a scratch copy."""
+        context.SetTime(t)
+        scratch = context.Clone()
+        before = player.player_state(context)
+        status = player._update(context, scratch.get_mutable_state())
+        did_nothing = status is not None and status.severity() == nothing
+        return did_nothing, player.player_state(scratch) is not before
+
+    fix_inputs(player, context, stimuli[0], T_HIT, valid=0.0)
+    assert tick(0.1) == (True, False)  # no valid configuration
+    fix_inputs(player, context, stimuli[0], T_HIT)
+    assert tick(0.1) == (False, True)  # a new prediction: planned
+    player.ExecuteForcedEvents(context)
+    assert player.player_state(context).stroke is not None
+    assert tick(0.104) == (True, False)  # the same prediction again
+    assert tick(T_HIT - 0.1) == (False, True)  # the hitting stage has begun: commits
+    player.ExecuteForcedEvents(context)
+    assert player.player_state(context).committed
+    assert tick(T_HIT - 0.096) == (True, False)
+
+
 def test_output_evaluation_is_constant_time(stroke_run):
     """The same work per evaluation early and late in a long segment: one stored row read (the
     row of the sample interval holding t), whatever the time."""

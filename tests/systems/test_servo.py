@@ -82,6 +82,83 @@ def test_half_tick_lead_removes_the_holds_lag():
         assert lag == pytest.approx(expected_lag, abs=0.02 * H)
 
 
+class ReplanningPlayer(FixedPlanPlayer):
+    """PLAN until its first 4 ms tick at or after ``switch_at``, then a re-plan from there: the
+    rest of PLAN replaced by a quintic back towards Q0 (0.1 s)."""
+
+    def __init__(self, setpoint_lead, setpoint_period=None, switch_at=0.05):
+        StagePlanPlayer.__init__(self, setpoint_lead, setpoint_period)
+        self._index = self.DeclareAbstractState(AbstractValue.Make(_Fixed(PLAN)))
+        self.switch_at = switch_at
+        self.DeclarePeriodicUnrestrictedUpdateEvent(2 * H, 0.0, self._switch)
+
+    def _switch(self, context, state):
+        t = context.get_time()
+        if t < self.switch_at or self.player_state(context).plan is not PLAN:
+            return
+        zero = np.zeros(7)
+        back = Quintic.fit(t, 0.1, *PLAN.evaluate(t), Q0 - 0.2, zero, zero)
+        state.get_mutable_abstract_state(self._index).set_value(
+            _Fixed(StagePlan(PLAN.truncated(t).segments + [(HITTING, back)])))
+
+
+def replayed_setpoints(player, times):
+    builder = DiagramBuilder()
+    builder.AddSystem(player)
+    hold = add_servo_hold(builder, player.GetOutputPort("setpoint"), None)
+    builder.ExportOutput(hold.get_output_port(), "held")
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    context = simulator.get_mutable_context()
+    simulator.Initialize()
+    out = []
+    for t in times:
+        simulator.AdvanceTo(t)
+        out.append(diagram.GetOutputPort("held").Eval(context).copy())
+    return np.array(out), context
+
+
+def test_tabled_setpoints_are_the_plans_values_across_a_replan():
+    """With ``setpoint_period`` the servo reads a table made per plan (and per 32 ticks): the
+    held set-points equal, to the last bit, those of one plan evaluation per tick, before and
+    after a re-plan and past the plan's end; off the servo ticks the port evaluates the plan."""
+    times = np.arange(0.0, 0.3, H) + 0.37 * H  # 150 ticks: the table is made anew on the way
+    per_tick, _ = replayed_setpoints(ReplanningPlayer(0.5 * H), times)
+    player = ReplanningPlayer(0.5 * H, setpoint_period=H)
+    tabled, root = replayed_setpoints(player, times)
+    np.testing.assert_array_equal(tabled, per_tick)
+    context = player.GetMyContextFromRoot(root)
+    plan = player.player_state(context).plan
+    assert plan is not PLAN and player.setpoint_table.plan is plan  # the re-plan's table was read
+    np.testing.assert_allclose(tabled[-1, :7], Q0 - 0.2, atol=1e-9)  # the re-plan's end, at rest
+    np.testing.assert_allclose(tabled[-1, 7:], 0.0, atol=1e-9)
+    off_tick = 0.1007  # inside the re-plan, between two ticks
+    root.SetTime(off_tick)
+    np.testing.assert_array_equal(player.GetOutputPort("setpoint").Eval(context),
+                                  np.hstack(plan.evaluate(off_tick + 0.5 * H)))
+
+
+def test_plan_table_rows_are_the_plans_values_at_the_ticks():
+    """PlanTable (the MoMP hold's check reads one at the 250 Hz planning ticks, lead 0): at a
+    tick k * period its row is the plan's (q, q_dot, q_ddot) to the last bit, past the table's
+    end and for another plan too; off the ticks, or switched off, it has no row."""
+    from tt_drake.systems.stage_player import PlanTable
+
+    period = 2 * H
+    table = PlanTable(period, ticks=8)
+    replanned = StagePlan(PLAN.truncated(0.1).segments
+                          + [(HITTING, Quintic.fit(0.1, 0.1, *PLAN.evaluate(0.1), Q0,
+                                                   np.zeros(7), np.zeros(7)))])
+    for plan, ks in ((PLAN, range(0, 30)), (replanned, range(25, 70))):
+        for k in ks:
+            np.testing.assert_array_equal(table.row(plan, k * period),
+                                          np.hstack(plan.evaluate(k * period)))
+        assert table.plan is plan
+    assert table.row(replanned, 0.1001) is None
+    table.ticks = 0
+    assert table.row(replanned, 0.1) is None
+
+
 class CountingModel:
     """A stand-in ConfigurationModel: theta = (s[:3], s[:3] + 1, 0), theta_dot = 2 s[:3] ..."""
 

@@ -10,6 +10,7 @@ from tt_drake.stages import (
     PREPARATION,
     JointLimits,
     Quintic,
+    StagePlan,
     StageTimes,
     plan_extremes,
     plan_stroke,
@@ -141,6 +142,25 @@ def test_evaluate_many_gives_the_values_of_evaluate(index):
         for got, want in zip((q[i], v[i], a[i]), seg.evaluate(t), strict=True):
             np.testing.assert_array_equal(got, want)
     assert not np.any(a[-1]) and np.any(a[1])
+
+
+def test_a_plans_evaluate_many_gives_the_values_of_evaluate():
+    """A re-planned plan (a cut quintic, a sampled segment, a quintic after it): every time goes
+    to the segment ``segment_at`` picks, ends included, before the first and past the last."""
+    quintic, sampled = _segments()
+    rng = np.random.default_rng(5)
+    after = Quintic.fit(sampled.t_end, 0.3, *rng.normal(size=(6, 7)))
+    plan = StagePlan([(PREPARATION, quintic.cut(0.45)),
+                      (HITTING, sampled),
+                      (AWAITING, after)])
+    ends = [seg.t_end for _, seg in plan.segments]
+    times = np.r_[0.0, np.arange(0.3, after.t_end + 0.1, 0.0021), ends, after.t_end + 1e-12]
+    q, v, a = plan.evaluate_many(times)
+    for i, t in enumerate(times):
+        for got, want in zip((q[i], v[i], a[i]), plan.evaluate(t), strict=True):
+            np.testing.assert_array_equal(got, want)
+    one = plan.evaluate_many(np.array([ends[1]]))  # a single time, on a boundary
+    np.testing.assert_array_equal(one[0][0], plan.evaluate(ends[1])[0])
 
 
 def test_effort_check_is_the_sampled_bound_and_stops_at_the_first_excess():
