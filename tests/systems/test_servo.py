@@ -6,7 +6,6 @@ import pytest
 from pydrake.common.value import AbstractValue
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import Demultiplexer
 
 from tt_drake import wam_params as wp
 from tt_drake.stages import HITTING, Quintic, StagePlan
@@ -39,23 +38,9 @@ class FixedPlanPlayer(StagePlanPlayer):
 
 
 def held_setpoints(lead, times):
-    builder = DiagramBuilder()
-    player = builder.AddSystem(FixedPlanPlayer(lead))
-    hold = add_servo_hold(builder, player.GetOutputPort("setpoint"), None)
-    split = builder.AddSystem(Demultiplexer([14, 7]))
-    builder.Connect(hold.get_output_port(), split.get_input_port())
-    builder.ExportOutput(split.get_output_port(0), "q")
-    builder.ExportOutput(split.get_output_port(1), "a")
-    diagram = builder.Build()
-    simulator = Simulator(diagram)
-    context = simulator.get_mutable_context()
-    simulator.Initialize()
-    out = []
-    for t in times:
-        simulator.AdvanceTo(t)
-        out.append((diagram.GetOutputPort("q").Eval(context).copy(),
-                    diagram.GetOutputPort("a").Eval(context).copy()))
-    return out
+    """The held (desired state (14), desired acceleration (7)) at ``times``."""
+    held, _ = replayed_setpoints(FixedPlanPlayer(lead), times)
+    return [(row[:14], row[14:]) for row in held]
 
 
 def test_held_setpoint_is_the_plan_at_the_middle_of_its_tick():
