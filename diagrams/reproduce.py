@@ -4,7 +4,8 @@
 
 Stages, in order (each a function below; :data:`STAGES`):
 
-1. ``teacher``: the analytical player's demonstrations (``tt-drake collect``);
+1. ``teacher``: the analytical player's demonstrations (``tt-drake collect``; in the paper
+   protocol with the oracle's perception, :attr:`Protocol.teacher_perception`);
 2. ``predictor``: the GPR virtual-hitting-point model, trained on one seed's serves and evaluated
    on held-out serves of another (section III-B.1);
 3. ``library``: 300 hitting primitives + the stage DMPs imitated from the teacher (section III-C);
@@ -216,7 +217,7 @@ class Protocol:
 
 
 PROTOCOLS = {
-    # The paper's experiments, on the default launcher (today's run, unchanged).
+    # The paper's experiments, on the default launcher (the earlier runs' settings).
     # Its teacher demonstrates with the oracle's perception, as a human teacher sees the ball.
     "paper": Protocol("paper", ("default",), (("default", "default"), ("real", "real")),
                       teacher_perception="oracle"),
