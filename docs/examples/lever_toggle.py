@@ -21,7 +21,10 @@ after the other do not. Levers:
   a table made per plan and 32 ticks against one plan evaluation per tick;
 - ``momp-did-nothing``: the MoMP player's planning ticks without anything new return
   ``EventStatus.DidNothing`` against returning nothing;
-- ``fifth-pass``: the last three together.
+- ``fifth-pass``: the last three together;
+- ``guard``: the MoMP player's safety guard (session 8: the measured arm checked against the plan
+  at every planning tick, ``MoMPConfig.hold_error``) on against off (off changes no outcome
+  unless a stroke would have been held).
 
 It also counts the serves whose outcome and episode duration are equal both ways (``did-nothing``,
 ``setpoint-table``, ``hold-table`` and ``momp-did-nothing`` change no number; ``segments`` may
@@ -78,15 +81,22 @@ def toggles(diagram: ServeDiagram) -> dict:
         for lever in (setpoint_table, hold_table, momp_did_nothing):
             lever(on)
 
+    import dataclasses
+
+    guarded = player().config
+
+    def guard(on: bool) -> None:
+        player().config = guarded if on else dataclasses.replace(guarded, hold_error=None)
+
     return {"segments": segments, "did-nothing": did_nothing, "setpoint-table": setpoint_table,
             "hold-table": hold_table, "momp-did-nothing": momp_did_nothing,
-            "fifth-pass": fifth_pass}
+            "fifth-pass": fifth_pass, "guard": guard}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("lever", choices=("segments", "did-nothing", "setpoint-table", "hold-table",
-                                      "momp-did-nothing", "fifth-pass"))
+                                      "momp-did-nothing", "fifth-pass", "guard"))
     ap.add_argument("--player", default="momp")
     ap.add_argument("--serves", type=int, default=12)
     ap.add_argument("--seed", type=int, default=3)
