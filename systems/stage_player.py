@@ -75,7 +75,6 @@ class StagePlanPlayer(LeafSystem):
         super().__init__()
         self._memo = None
         self.setpoint_lead = float(setpoint_lead)
-        self.setpoint_period = None if setpoint_period is None else float(setpoint_period)
         self.setpoint_table = (None if setpoint_period is None
                                else PlanTable(setpoint_period, self.setpoint_lead))
         self.DeclareVectorOutputPort("desired_state", BasicVector(14), self._calc_state)

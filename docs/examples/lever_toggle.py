@@ -16,7 +16,8 @@ after the other do not. Levers:
   ``EventStatus.DidNothing`` against returning nothing (the simulator then writes the unchanged
   state back);
 - ``setpoint-table``: the player's servo set-points read from a table made once per plan and
-  32 ticks (``StagePlanPlayer.setpoint_period``) against one plan evaluation per servo tick;
+  32 ticks (``StagePlanPlayer(setpoint_period=...)``, its ``setpoint_table``) against one plan
+  evaluation per servo tick;
 - ``hold-table``: the MoMP hold's check reads the plan's positions at the planning ticks from
   a table made per plan and 32 ticks against one plan evaluation per tick;
 - ``momp-did-nothing``: the MoMP player's planning ticks without anything new return
