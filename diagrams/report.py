@@ -169,7 +169,7 @@ def table_rows(results: dict) -> list[dict]:
             if key not in ("default", "real"):
                 continue
             rows.append(_row("final" if key == "default" else "real",
-                             _momp(r) + note, r["momp_return_rate"], r["serves"],
+                             _momp(r) + _ceiling(r) + note, r["momp_return_rate"], r["serves"],
                              f"--player momp --library DIR/{library} "
                              f"--distribution {key} --seed {r['seed']}"))
     return rows

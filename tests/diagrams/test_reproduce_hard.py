@@ -158,6 +158,28 @@ def test_the_paper_profile_plays_crkr_as_before(tmp_path, monkeypatch):
     assert {c["configuration"] for c in recorder.calls} == {"crkr"}
 
 
+def test_the_paper_profiles_real_serves_come_with_the_oracles_ceiling_on_the_same_serves(
+        tmp_path, monkeypatch):
+    run, recorder = _hard_run(tmp_path, monkeypatch, protocol="paper")
+    final = rp.stage_final(run)
+    momp = [c for c in recorder.calls if c["player"] == "momp"]
+    oracle = [c for c in recorder.calls if c["player"] == "analytical"]
+    # only the real set gets a ceiling, played on the momp player's serves: the same
+    # distribution, count and seeds, and no deal of the pool (the paper's serves as they were)
+    real = next(m for m in momp if m["distribution"] == "real")
+    serves = ("distribution", "run_seed", "serves", "seed")
+    assert [[o[k] for k in serves] for o in oracle] == [[real[k] for k in serves]]
+    assert oracle[0]["perception"] == "oracle" and real["perception"] != "oracle"
+    assert oracle[0]["folder"] == run.folder("ceiling") / "real"
+    assert real["run_seed"] == rp._learned(run).launcher.run_seed
+    # every serve returned by the recorder's even-numbered episodes, oracle and momp alike
+    assert final["real"]["returnable_serves"] == (real["serves"] + 1) // 2
+    assert final["real"]["return_rate_of_returnable"] == 1.0
+    assert "returnable_serves" not in final["default"]
+    rows = {r["key"]: r for r in table_rows({"final": final})}
+    assert "serves the oracle teacher returns = 100.0 % of the ceiling" in rows["real"]["ours"]
+
+
 def _evaluation(rate, target, reward, returns, early):
     return {"serves": 10, "seed": 7, "distribution": "real-test", "momp_return_rate": rate,
             "momp_target_rate": target, "return_rate": rate, "target_rate": target,
