@@ -9,13 +9,9 @@ Inputs:
   the floor), not at every sample (docs/performance.md);
 - ``contact_results``: the plant's contact results, to see robot-table contact (optional).
 
-A periodic discrete update at ``rate`` Hz (default 250 Hz) samples them; its discrete state (a
-vector, :class:`_RefereeVector`) holds the last sample (the racket centre as the joint positions
-it is computed from), the contact events so far (at most :data:`MAX_EVENTS`) and whether the
-robot touched the table. (An abstract state was deep-copied by the simulator twice per sample,
-and kept the player's unrestricted updates that change nothing from skipping their write-back:
-docs/performance.md, sixth pass.) Output ``outcome``: the
-:class:`tt_drake.referee_rules.Outcome` of the episode so far.
+A periodic unrestricted update at ``rate`` Hz (default 250 Hz) samples them; its abstract state
+holds the last sample, the contact events so far and whether the robot touched the table. Output
+``outcome``: the :class:`tt_drake.referee_rules.Outcome` of the episode so far.
 
 The referee ends the episode (``EventStatus.ReachedTermination``, which stops
 ``Simulator.AdvanceTo``) once the ball has fallen below ``stop_below`` metres: by then every
@@ -30,17 +26,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.multibody.plant import ContactResults
 from pydrake.systems.framework import EventStatus, LeafSystem
 
 from tt_drake.referee_rules import (
     FLOOR_CONTACT,
-    NET_CONTACT,
-    RACKET_CONTACT,
-    ROBOT_CONTACT,
-    TABLE_CONTACT,
     ContactDetector,
     ContactEvent,
     Outcome,
@@ -48,63 +39,17 @@ from tt_drake.referee_rules import (
     decides_return,
     judge,
 )
-
-# The most contact events one episode's state holds. A serve episode has a handful; a ball
-# dribbling on the table until the time limit at most ~30 (bounces of the ball's velocity jump
-# threshold or more); the referee fails loudly rather than drop one.
-MAX_EVENTS = 64
-_KINDS = (TABLE_CONTACT, NET_CONTACT, FLOOR_CONTACT, RACKET_CONTACT, ROBOT_CONTACT)
-_KIND_CODE = {kind: float(i) for i, kind in enumerate(_KINDS)}
+from tt_drake.systems.immutable import Immutable
 
 
-class _RefereeVector:
-    """The layout of the referee's discrete state::
+class _RefereeState(Immutable):
+    """The referee's abstract state: the last sample, the contact events so far and whether the
+    robot touched the table; every update makes a new one."""
 
-        [has_sample, t, p (3), v (3), omega (3), has_racket, q (num_positions), touched,
-         n_events, events (MAX_EVENTS x 5: t, kind code, position (3))]
+    __slots__ = ("sample", "events", "touched")
 
-    Every value is stored as the float64 the abstract state held, so a sample and the events
-    read back are the same numbers."""
-
-    def __init__(self, num_positions: int):
-        self.q = slice(12, 12 + num_positions)
-        self.touched = 12 + num_positions
-        self.n_events = self.touched + 1
-        self.events = self.n_events + 1
-        self.size = self.events + 5 * MAX_EVENTS
-
-    def initial(self) -> np.ndarray:
-        return np.zeros(self.size)
-
-    def sample(self, x: list, centre) -> tuple | None:
-        """The stored sample as :meth:`ContactDetector.sample`'s tuple (None before the first);
-        the racket centre from the stored joint positions (``centre``), on first use."""
-        if x[0] != 1.0:
-            return None
-        racket = RacketAt(tuple(x[self.q]), centre) if x[11] == 1.0 else None
-        return (x[1], (x[2], x[3], x[4]), (x[5], x[6], x[7]), (x[8], x[9], x[10]), racket)
-
-    def events_of(self, x) -> tuple:
-        n = int(x[self.n_events])
-        e = self.events
-        return tuple(ContactEvent(x[k], _KINDS[int(x[k + 1])], (x[k + 2], x[k + 3], x[k + 4]))
-                     for k in range(e, e + 5 * n, 5))
-
-    def header(self, cur: tuple, q, touched: float, n_events: float) -> list:
-        """The state's entries before the events for the sample ``cur`` (with the joint
-        positions ``q`` of its racket centre, or None)."""
-        t, p, v, w, _ = cur
-        if q is None:
-            return [1.0, t, *p, *v, *w, 0.0, touched, n_events]
-        return [1.0, t, *p, *v, *w, 1.0, *q, touched, n_events]
-
-    def append(self, new: np.ndarray, event: ContactEvent) -> None:
-        n = int(new[self.n_events])
-        if n == MAX_EVENTS:
-            raise RuntimeError(f"the referee holds at most {MAX_EVENTS} contact events")
-        k = self.events + 5 * n
-        new[k:k + 5] = (event.t, _KIND_CODE[event.kind], *event.position)
-        new[self.n_events] = n + 1
+    def __init__(self, sample=None, events=(), touched=False):
+        self.sample, self.events, self.touched = sample, events, touched
 
 
 class RacketCentre:
@@ -171,20 +116,19 @@ class Referee(LeafSystem):
         self._contacts = self.DeclareAbstractInputPort("contact_results",
                                                        AbstractValue.Make(ContactResults()))
         self._succeeded = EventStatus.Succeeded()
-        self._layout = _RefereeVector(0 if racket_centre is None else racket_centre.num_positions)
-        self._xd = self.DeclareDiscreteState(self._layout.initial())
-        self.DeclarePeriodicDiscreteUpdateEvent(1.0 / rate, 0.0, self._update)
+        self._state_index = self.DeclareAbstractState(AbstractValue.Make(_RefereeState()))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, self._update)
         # The same update as a forced event, so that a sample can be taken on demand (tests).
-        self.DeclareForcedDiscreteUpdateEvent(self._update)
+        self.DeclareForcedUnrestrictedUpdateEvent(self._update)
         self.DeclareAbstractOutputPort(
             "outcome", lambda: AbstractValue.Make(Outcome("missed", False, False, False)),
-            self._calc_outcome, prerequisites_of_calc={self.xd_ticket()})
+            self._calc_outcome)
 
-    def _racket_q(self, context) -> tuple | None:
-        """The joint positions the racket centre is computed from (None without a robot)."""
+    def _racket_center(self, context):
         if self._racket_centre is None or not self._robot.HasValue(context):
             return None
-        return tuple(self._robot.Eval(context)[:self._racket_centre.num_positions].tolist())
+        x = self._robot.Eval(context)
+        return RacketAt(tuple(x[:self._racket_centre.num_positions].tolist()), self._racket_centre)
 
     def _robot_touches_table(self, context) -> bool:
         if not self._table_geometries or not self._contacts.HasValue(context):
@@ -199,47 +143,38 @@ class Referee(LeafSystem):
                     return True
         return False
 
-    def _update(self, context, discrete_state):
-        layout = self._layout
-        x = context.get_discrete_state(self._xd).get_value()
-        old = x[:layout.events].tolist()
+    def _update(self, context, state):
+        old = context.get_abstract_state(self._state_index).get_value()
         # ContactDetector.sample's tuple of plain floats, made at once (tolist) at 250 Hz.
         s = self._ball.Eval(context).tolist()
-        q = self._racket_q(context)
         cur = (float(context.get_time()), (s[4], s[5], s[6]), (s[10], s[11], s[12]),
-               (s[7], s[8], s[9]), None if q is None else RacketAt(q, self._racket_centre))
-        touched = old[layout.touched]
-        if touched != 1.0 and self._robot_touches_table(context):
-            touched = 1.0
-        event = None
+               (s[7], s[8], s[9]), self._racket_center(context))
+        events = old.events
         decided = False
-        prev = layout.sample(old, self._racket_centre)
-        if prev is not None:
-            event = self.detector.detect(prev, cur)
+        if old.sample is not None:
+            event = self.detector.detect(old.sample, cur)
             if event is not None:
-                decided = self._stop_when_decided and decides_return(layout.events_of(x), event)
-        new = x.copy()
-        new[:layout.events] = layout.header(cur, q, touched, old[layout.n_events])
-        if event is not None:
-            layout.append(new, event)
+                decided = self._stop_when_decided and decides_return(events, event)
+                events = (*events, event)
+        touched = old.touched or self._robot_touches_table(context)
         if decided:
-            discrete_state.set_value(self._xd, new)
+            state.get_mutable_abstract_state(self._state_index).set_value(
+                _RefereeState(cur, events, touched))
             return EventStatus.ReachedTermination(self, "the return's outcome is decided")
         if cur[1][2] < self._stop_below:
             # The ball is at the floor: that is its last contact, whether or not the floor
             # contact itself fell between samples.
-            layout.append(new, ContactEvent(cur[0], FLOOR_CONTACT, cur[1]))
-            discrete_state.set_value(self._xd, new)
+            events = (*events, ContactEvent(cur[0], FLOOR_CONTACT, cur[1]))
+            state.get_mutable_abstract_state(self._state_index).set_value(
+                _RefereeState(cur, events, touched))
             return EventStatus.ReachedTermination(self, "the ball reached the floor")
-        discrete_state.set_value(self._xd, new)
+        state.get_mutable_abstract_state(self._state_index).set_value(
+            _RefereeState(cur, events, touched))
         return self._succeeded
 
     def events(self, context):
-        return list(self._layout.events_of(context.get_discrete_state(self._xd).get_value()))
-
-    def touched(self, context) -> bool:
-        """Whether the robot has touched the table so far."""
-        return bool(context.get_discrete_state(self._xd).get_value()[self._layout.touched])
+        return list(context.get_abstract_state(self._state_index).get_value().events)
 
     def _calc_outcome(self, context, output):
-        output.set_value(judge(self.events(context), self.touched(context), self.config))
+        state = context.get_abstract_state(self._state_index).get_value()
+        output.set_value(judge(list(state.events), state.touched, self.config))

@@ -25,16 +25,10 @@ after the other do not. Levers:
 - ``fifth-pass``: the last three together;
 - ``guard``: the MoMP player's safety guard (session 8: the measured arm checked against the plan
   at every planning tick, ``MoMPConfig.hold_error``) on against off (off changes no outcome
-  unless a stroke would have been held);
-- ``referee-vector``: the referee's state in a discrete state vector (sixth pass) against the
-  abstract state it had before (``systems/referee.py`` as of ``--before``, default f963620,
-  read with ``git show``: run it in a git checkout). This lever needs two diagrams: both are
-  built, and each serve runs on both, the order alternating.
+  unless a stroke would have been held).
 
-It also counts the serves whose outcome and episode duration are equal both ways, and (with
-``--results``) those whose whole episode record (``EpisodeResult.as_dict`` but the wall time:
-outcome, arm metrics, stroke) is (``did-nothing``, ``setpoint-table``, ``hold-table``,
-``momp-did-nothing`` and ``referee-vector`` change no number; ``segments`` may
+It also counts the serves whose outcome and episode duration are equal both ways (``did-nothing``,
+``setpoint-table``, ``hold-table`` and ``momp-did-nothing`` change no number; ``segments`` may
 move the integrator's steps, and the outcome check for it is ``compare_serves.py`` on 100
 serves).
 """
@@ -100,75 +94,28 @@ def toggles(diagram: ServeDiagram) -> dict:
             "fifth-pass": fifth_pass, "guard": guard}
 
 
-def referee_before(commit: str):
-    """The Referee class of ``systems/referee.py`` at ``commit`` (``git show``), as a module."""
-    import subprocess
-    import types
-    from pathlib import Path
-
-    source = subprocess.run(["git", "show", f"{commit}:systems/referee.py"], check=True,
-                            capture_output=True, text=True,
-                            cwd=Path(__file__).resolve().parents[2]).stdout
-    module = types.ModuleType("referee_before")
-    exec(compile(source, f"{commit}:systems/referee.py", "exec"), module.__dict__)  # noqa: S102
-    return module.Referee
-
-
-def two_diagrams(scenario, player: str, lever: str, before: str) -> dict:
-    """{on: diagram} for a lever that changes the diagram itself."""
-    import tt_drake.diagrams.episodes as episodes
-
-    assert lever == "referee-vector"
-    with_lever = ServeDiagram(scenario, player)
-    current = episodes.Referee
-    episodes.Referee = referee_before(before)
-    try:
-        without = ServeDiagram(scenario, player)
-    finally:
-        episodes.Referee = current
-    return {True: with_lever, False: without}
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("lever", choices=("segments", "did-nothing", "setpoint-table", "hold-table",
-                                      "momp-did-nothing", "fifth-pass", "guard",
-                                      "referee-vector"))
+                                      "momp-did-nothing", "fifth-pass", "guard"))
     ap.add_argument("--player", default="momp")
     ap.add_argument("--serves", type=int, default=12)
     ap.add_argument("--seed", type=int, default=3)
-    ap.add_argument("--before", default="f963620", help="the commit of referee-vector's 'without'")
-    ap.add_argument("--results", action="store_true",
-                    help="also compare the whole episode records (but the wall time)")
     args = ap.parse_args()
     scenario = load_scenario()
     use_artefact_set(scenario.learned)  # the shipped paper set, as `tt-drake serve` plays it
-    if args.lever == "referee-vector":
-        diagrams = two_diagrams(scenario, args.player, args.lever, args.before)
-
-        def toggle(on: bool) -> None:
-            pass
-    else:
-        diagram = ServeDiagram(scenario, args.player)
-        diagrams = {True: diagram, False: diagram}
-        toggle = toggles(diagram)[args.lever]
-    for on in (False, True):
-        toggle(on)
-        diagrams[on].run(episode_seed(args.seed, 0))
+    diagram = ServeDiagram(scenario, args.player)
+    toggle = toggles(diagram)[args.lever]
+    diagram.run(episode_seed(args.seed, 0))
     cpu = {False: [], True: []}
     results = {False: [], True: []}
-    records = {False: [], True: []}
     for i in range(args.serves):
         for on in ((True, False) if i % 2 else (False, True)):
             toggle(on)
             c0 = time.process_time()
-            r = diagrams[on].run(episode_seed(args.seed, i))
+            r = diagram.run(episode_seed(args.seed, i))
             cpu[on].append(time.process_time() - c0)
             results[on].append((r.outcome.as_dict(), r.duration))
-            if args.results:
-                record = r.as_dict()
-                record.pop("wall_time")
-                records[on].append(record)
     toggle(True)
     off, on = sum(cpu[False]), sum(cpu[True])
     per_serve = [a / b for a, b in zip(cpu[False], cpu[True], strict=True)]
@@ -178,9 +125,6 @@ def main() -> None:
           f"{1e3 * off / n:.1f}, with {1e3 * on / n:.1f} CPU ms per serve; without / with "
           f"{off / on:.3f} (median per serve {statistics.median(per_serve):.3f}); outcome and "
           f"duration equal in {same} of {n}")
-    if args.results:
-        equal = sum(a == b for a, b in zip(records[False], records[True], strict=True))
-        print(f"whole episode records equal in {equal} of {n}")
 
 
 if __name__ == "__main__":
