@@ -84,12 +84,14 @@ class ReferenceDiagram:
         self.world.plant.SetPositions(plant_context, self.world.robot, np.asarray(AWAITING))
         self._initial = self.context.Clone()
 
-    def run(self, launch_state, duration: float) -> None:
+    def run(self, launch_state, duration: float) -> float:
+        """Simulate the serve from ``launch_state`` for ``duration``; returns the time reached."""
         self.context.SetTimeStateAndParametersFrom(self._initial)
         set_ball_state(self.world, self.world.plant.GetMyMutableContextFromRoot(self.context),
                        launch_state)
         self.simulator.Initialize()
         self.simulator.AdvanceTo(duration)
+        return self.context.get_time()
 
 
 def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str = "idle",

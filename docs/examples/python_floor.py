@@ -333,11 +333,7 @@ def main() -> None:
             return diagram.run(seeds[i]).duration
         return run
 
-    def run_reference(i):
-        reference.run(launch[i], durations[i])
-        return durations[i]
-
-    runners = {"reference": run_reference,
+    runners = {"reference": lambda i: reference.run(launch[i], durations[i]),
                "replay": run_replay, "floor-player": run_floor("floor-player"),
                "floor": run_floor("floor"), "floor-60hz": run_floor("floor-60hz"),
                "floor-merged": run_floor("floor-merged"),

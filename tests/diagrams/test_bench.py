@@ -42,6 +42,9 @@ def test_reference_diagram_keeps_the_recipe_whatever_the_scenario():
     reference = ReferenceDiagram(scenario, 1.0)
     assert reference.simulator.get_integrator().get_target_accuracy() == 1e-4
     assert scenario.world.simulator.accuracy == 1e-3  # the scenario itself is left alone
+    from tt_drake.serves import ServeSampler
+
+    assert reference.run(ServeSampler("default").sample(3).launch_state, 0.25) == 0.25
 
 
 def test_parallel_timing_runs_every_serve_and_projects_from_the_steady_rate():
