@@ -15,6 +15,11 @@ diagram, against diagrams measured in the same run.
   player's episode gave the servo. It simulates the same physics, so replay / idle is what the
   returned ball costs the simulation itself (a longer episode, more contacts, a spinning ball)
   and project / replay is what the player's systems cost.
+- Every diagram is timed on the same serve one after the other, serve by serve in one process
+  (:func:`_alternate`): the per-serve CPU ratios compare times measured seconds apart, under
+  the same load, and the bench reports their median and quartiles with the ratio of the totals.
+  (Timing each diagram's serves in a block, minutes apart, let the ratio of the same code move
+  by up to 20 % between runs: docs/performance.md, sixth pass.)
 - With ``workers`` > 1: the same serves in that many worker processes
   (:func:`tt_drake.diagrams.parallel.run_episodes`): the start-up (building the workers'
   diagrams), the steady wall time per serve, the speed-up over one process and the projected
@@ -79,16 +84,26 @@ class ReferenceDiagram:
         self.world.plant.SetPositions(plant_context, self.world.robot, np.asarray(AWAITING))
         self._initial = self.context.Clone()
 
-    def run(self, launch_state, duration: float) -> None:
+    def run(self, launch_state, duration: float) -> float:
+        """Simulate the serve from ``launch_state`` for ``duration``; returns the time reached."""
         self.context.SetTimeStateAndParametersFrom(self._initial)
         set_ball_state(self.world, self.world.plant.GetMyMutableContextFromRoot(self.context),
                        launch_state)
         self.simulator.Initialize()
         self.simulator.AdvanceTo(duration)
+        return self.context.get_time()
 
 
 def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str = "idle",
               workers: int = 1) -> dict:
+    """Time ``serves`` serve episodes of ``player`` against the C++ reference diagram (and, for
+    a player other than idle, the set-point replay and the idle diagram) on the same serves.
+
+    An untimed pass first plays every serve once to learn its duration (the reference runs each
+    serve for as long as the project's episode of it lasted) and, for a player other than idle,
+    the set-points its episodes gave the servo (the replay's). The timed pass then runs serve
+    after serve on every diagram in turn (:func:`_alternate`), so that each per-serve ratio
+    compares CPU times measured seconds apart, under the same load."""
     seeds = [episode_seed(seed, i) for i in range(serves)]
     sampler = ServeSampler(scenario.launcher.distribution, scenario.launcher.spin_max,
                            scenario.launcher.real_serves or None)
@@ -96,17 +111,34 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
     launch = [sampler.sample(s) for s in seeds]
     sampling = (time.perf_counter() - t0) / serves
 
-    project_wall, durations, project_cpu = _time_episodes(ServeDiagram(scenario, player), seeds)
+    project = ServeDiagram(scenario, player)
+    if player == "idle":
+        durations = [project.run(s).duration for s in seeds]
+        trajectories = None
+    else:
+        durations, trajectories = _record_setpoints(scenario, player, seeds)
     reference = ReferenceDiagram(scenario, max(durations))
-    reference.run(launch[0].launch_state, durations[0])
-    t0, c0 = time.perf_counter(), time.process_time()
-    for serve, duration in zip(launch, durations, strict=True):
-        reference.run(serve.launch_state, duration)
-    reference_wall = (time.perf_counter() - t0) / serves
-    reference_cpu = (time.process_time() - c0) / serves
+    runners = {"project": lambda i: project.run(seeds[i]).duration,
+               "reference": lambda i: reference.run(launch[i].launch_state, durations[i])}
+    if player != "idle":
+        idle = ServeDiagram(scenario, "idle")
+        replay = ServeDiagram(scenario, _replay_player)
+        source = replay.diagram.GetSubsystemByName("setpoint_replay")
+
+        def run_replay(i: int) -> float:
+            source.UpdateTrajectory(trajectories[i])
+            return replay.run(seeds[i]).duration
+
+        runners["replay"] = run_replay
+        runners["idle"] = lambda i: idle.run(seeds[i]).duration
+    timed = _alternate(runners, serves)
+    p, ref = timed["project"], timed["reference"]
+    project_wall, project_cpu = _mean(p["wall"]), _mean(p["cpu"])
+    reference_wall, reference_cpu = _mean(ref["wall"]), _mean(ref["cpu"])
     mean_duration = float(np.mean(durations))
     result = {
         "serves": serves, "player": player, "mean_episode_sim_time": mean_duration,
+        "timing": "alternated: serve by serve on every diagram in turn, one process",
         "project": {"wall_per_serve": project_wall, "cpu_per_serve": project_cpu,
                     "real_time_factor": mean_duration / project_wall},
         "reference": {"wall_per_serve": reference_wall, "cpu_per_serve": reference_cpu,
@@ -115,6 +147,11 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
         "ratio_project_to_reference": project_wall / reference_wall,
         # The same ratio in this process's CPU time: steadier on a loaded machine.
         "cpu_ratio_project_to_reference": project_cpu / reference_cpu,
+        "per_serve_cpu_ratio_to_reference": _spread(p["cpu"], ref["cpu"]),
+        # Serves whose timed episode lasted as long as the reference was run for it (all of
+        # them: the untimed pass and the timed one simulate the same numbers).
+        "durations_equal": int(sum(a == b for a, b in zip(p["duration"], durations,
+                                                          strict=True))),
         "reference_simulator": {"integration_scheme": REFERENCE_SIMULATOR.integration_scheme,
                                 "accuracy": REFERENCE_SIMULATOR.accuracy,
                                 "max_step_size": REFERENCE_SIMULATOR.max_step_size},
@@ -126,18 +163,20 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
     if player != "idle":
         # The same serves at the idle diagram. A returned ball flies on to the far court, so per
         # serve the player's episodes also simulate longer.
-        idle_wall, idle_durations, _ = _time_episodes(ServeDiagram(scenario, "idle"), seeds)
-        idle_sim = float(np.mean(idle_durations))
+        idle_wall = _mean(timed["idle"]["wall"])
+        idle_sim = _mean(timed["idle"]["duration"])
         result["idle"] = {"wall_per_serve": idle_wall, "mean_episode_sim_time": idle_sim,
                           "real_time_factor": idle_sim / idle_wall}
         result["ratio_to_idle_per_serve"] = project_wall / idle_wall
         result["ratio_to_idle_per_simulated_second"] = (
             (project_wall / mean_duration) / (idle_wall / idle_sim))
-        replay_wall, replay_durations, replay_cpu = _time_replay(scenario, player, seeds)
+        r = timed["replay"]
+        replay_wall, replay_cpu = _mean(r["wall"]), _mean(r["cpu"])
         result["replay"] = {"wall_per_serve": replay_wall, "cpu_per_serve": replay_cpu,
-                            "mean_episode_sim_time": float(np.mean(replay_durations))}
+                            "mean_episode_sim_time": _mean(r["duration"])}
         result["ratio_to_replay_per_serve"] = project_wall / replay_wall
         result["cpu_ratio_to_replay_per_serve"] = project_cpu / replay_cpu
+        result["per_serve_cpu_ratio_to_replay"] = _spread(p["cpu"], r["cpu"])
         result["replay_to_idle_per_serve"] = replay_wall / idle_wall
     if workers > 1:
         result["parallel"] = _time_parallel(scenario, player, seeds, workers, project_wall,
@@ -151,9 +190,50 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
     return result
 
 
+def _mean(values: list[float]) -> float:
+    return float(np.mean(values))
+
+
+def _spread(numerators: list[float], denominators: list[float]) -> dict:
+    """Median, quartiles and extremes of the per-serve ratios ``numerators[i] / denominators[i]``
+    (each pair timed seconds apart, :func:`_alternate`)."""
+    ratios = np.asarray(numerators) / np.asarray(denominators)
+    q1, median, q3 = np.percentile(ratios, [25, 50, 75])
+    return {"median": float(median), "q1": float(q1), "q3": float(q3),
+            "min": float(ratios.min()), "max": float(ratios.max())}
+
+
+def _alternate(runners: dict, serves: int) -> dict:
+    """Time every runner (name -> ``run(i)`` that plays serve ``i`` and returns its simulated
+    duration) on serves 0 .. ``serves`` - 1, serve by serve: each runner once as a warm-up on
+    serve 0 (untimed), then for each serve every runner in turn, the order rotating by one from
+    serve to serve so that none always runs right after the same other one.
+
+    Returns per runner the wall and CPU (``time.process_time``) times and the durations of its
+    episodes, in the order of the serves, and under ``"calls"`` the (runner, serve) sequence of
+    the timed calls."""
+    names = list(runners)
+    for name in names:
+        runners[name](0)  # warm caches (first Python calls, scalar conversions)
+    out = {name: {"wall": [], "cpu": [], "duration": []} for name in names}
+    calls = []
+    for i in range(serves):
+        k = i % len(names)
+        for name in names[k:] + names[:k]:
+            t0, c0 = time.perf_counter(), time.process_time()
+            duration = runners[name](i)
+            cpu = time.process_time() - c0
+            out[name]["wall"].append(time.perf_counter() - t0)
+            out[name]["cpu"].append(cpu)
+            out[name]["duration"].append(duration)
+            calls.append((name, i))
+    out["calls"] = calls
+    return out
+
+
 def _replay_player(builder: DiagramBuilder, world, controller, scenario: Scenario) -> list:
     """Recorded set-points (q, q_dot, q_ddot) from a C++ ``TrajectorySource`` through the servo
-    holds; the trajectory is set per episode (:func:`_time_replay`)."""
+    holds; the trajectory is set per episode (:func:`run_bench`)."""
     from tt_drake.systems.wam import add_servo_hold
     from tt_drake.wam_params import AWAITING
 
@@ -164,29 +244,17 @@ def _replay_player(builder: DiagramBuilder, world, controller, scenario: Scenari
     return []
 
 
-def _time_replay(scenario: Scenario, player: str, seeds: list[int]
-                 ) -> tuple[float, list[float], float]:
-    """Record the set-points of ``player``'s episodes (untimed), then time the replay diagram on
-    the same serves: wall time per episode (after a warm-up), the episodes' durations and the CPU
-    time per episode."""
+def _record_setpoints(scenario: Scenario, player: str, seeds: list[int]
+                      ) -> tuple[list[float], list[PiecewisePolynomial]]:
+    """Play ``player``'s episodes of ``seeds`` (untimed) with the servo's set-points logged: their
+    durations and the set-points as trajectories for the replay."""
     recorder = ServeDiagram(scenario, player, log_setpoints=True)
-    trajectories = []
+    durations, trajectories = [], []
     for s in seeds:
-        recorder.run(s)
+        durations.append(recorder.run(s).duration)
         ticks, setpoints = recorder.setpoints()
         trajectories.append(PiecewisePolynomial.FirstOrderHold(ticks, setpoints.T))
-    replay = ServeDiagram(scenario, _replay_player)
-    source = replay.diagram.GetSubsystemByName("setpoint_replay")
-    source.UpdateTrajectory(trajectories[0])
-    replay.run(seeds[0])  # warm-up
-    wall, cpu, durations = 0.0, 0.0, []
-    for s, trajectory in zip(seeds, trajectories, strict=True):
-        source.UpdateTrajectory(trajectory)
-        t0, c0 = time.perf_counter(), time.process_time()
-        durations.append(replay.run(s).duration)
-        wall += time.perf_counter() - t0
-        cpu += time.process_time() - c0
-    return wall / len(seeds), durations, cpu / len(seeds)
+    return durations, trajectories
 
 
 def _machine_jiffies() -> tuple[int, int] | None:
@@ -259,23 +327,17 @@ def _time_parallel(scenario: Scenario, player: str, seeds: list[int], workers: i
     return out
 
 
-def _time_episodes(diagram: ServeDiagram, seeds: list[int]
-                   ) -> tuple[float, list[float], float]:
-    """Wall time per episode over ``seeds`` (after one warm-up episode), their durations and the
-    CPU time per episode."""
-    diagram.run(seeds[0])  # warm caches (first Python calls, scalar conversions)
-    t0, c0 = time.perf_counter(), time.process_time()
-    durations = [diagram.run(s).duration for s in seeds]
-    n = len(seeds)
-    return (time.perf_counter() - t0) / n, durations, (time.process_time() - c0) / n
-
-
 def _project_accuracy(simulator: dict) -> str:
     """The project's accuracy; with a flight accuracy (ContactAccuracy) both."""
     flight = simulator.get("flight_accuracy", 0.0)
     if flight > 0.0:
         return f"{simulator['accuracy']:g} near contacts, {flight:g} in flight"
     return f"{simulator['accuracy']:g}"
+
+
+def _format_spread(s: dict) -> str:
+    return (f"median {s['median']:.2f}, quartiles {s['q1']:.2f}-{s['q3']:.2f}, "
+            f"range {s['min']:.2f}-{s['max']:.2f}")
 
 
 def format_bench(r: dict) -> str:
@@ -292,6 +354,7 @@ def format_bench(r: dict) -> str:
         f"accuracy {r['reference_simulator']['accuracy']:g}, project at "
         f"{_project_accuracy(r['simulator'])}); in CPU time "
         f"{r['cpu_ratio_project_to_reference']:.2f}",
+        f"  per serve (CPU, alternated): {_format_spread(r['per_serve_cpu_ratio_to_reference'])}",
         f"  serve sampling (included in project): "
         f"{1e3 * r['serve_sampling_per_serve']:.1f} ms/serve",
     ]
@@ -309,6 +372,8 @@ def format_bench(r: dict) -> str:
                      f"serve, {r['cpu_ratio_to_replay_per_serve']:.2f} in CPU time (the "
                      f"player's systems); replay/idle: "
                      f"{r['replay_to_idle_per_serve']:.2f} (the returned ball's physics)")
+        lines.append(f"  per serve (CPU, alternated): "
+                     f"{_format_spread(r['per_serve_cpu_ratio_to_replay'])}")
     if "parallel" in r:
         p = r["parallel"]
         lines.append(f"  {p['workers']} workers: {1e3 * p['wall_per_serve']:.1f} ms/serve steady "

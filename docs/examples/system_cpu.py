@@ -24,12 +24,22 @@ from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.models import use_artefact_set
 
-# (label, module, class, method)
+# (label, module, class (None: a module function), method). Labels indented by two spaces are
+# parts of the row above them: left out of the sum.
 WRAPPED = [
     ("EKF", "tt_drake.systems.ball_flight_estimator", "BallFlightEstimator", "_update"),
+    ("  its filter step", "tt_drake.estimation", "BallFlightEKF", "step"),
     ("hitting-point predictor", "tt_drake.systems.hitting_point_predictor",
      "HittingPointPredictor", "_update"),
+    ("  early predictions", "tt_drake.systems.hitting_point_predictor", None, "_crossing"),
+    ("  refreshed predictions", "tt_drake.systems.hitting_point_predictor",
+     "HittingPointPredictor", "_refreshed"),
     ("MoMP planning tick", "tt_drake.systems.momp_player", "MoMPTrajectorySource", "_update"),
+    ("  re-plans", "tt_drake.systems.momp_player", "MoMPTrajectorySource", "_plan_primitives"),
+    ("  effort checks (in re-plans)", "tt_drake.systems.momp_player", "MoMPTrajectorySource",
+     "_within_effort"),
+    ("  the hold's check", "tt_drake.systems.momp_player", "MoMPTrajectorySource",
+     "_hold_if_lost"),
     ("servo set-points (state)", "tt_drake.systems.stage_player", "StagePlanPlayer",
      "_calc_state"),
     ("servo set-points (accel.)", "tt_drake.systems.stage_player", "StagePlanPlayer",
@@ -50,9 +60,11 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=3)
     args = ap.parse_args()
     spent = defaultdict(float)
+    calls = defaultdict(int)
     clock = time.process_time
     for label, module, cls, name in WRAPPED:
-        owner = getattr(importlib.import_module(module), cls)
+        owner = importlib.import_module(module)
+        owner = owner if cls is None else getattr(owner, cls, None)
         inner = getattr(owner, name, None)
         if inner is None:  # not in this checkout (another version of the code)
             continue
@@ -63,6 +75,7 @@ def main() -> None:
                 return _inner(*a, **k)
             finally:
                 spent[_label] += clock() - t0
+                calls[_label] += 1
 
         setattr(owner, name, functools.wraps(inner)(timed))
     scenario = load_scenario()
@@ -70,6 +83,7 @@ def main() -> None:
     diagram = ServeDiagram(scenario, args.player)
     diagram.run(episode_seed(args.seed, 0))
     spent.clear()
+    calls.clear()
     gc_started = []
 
     def gc_clock(phase, info):  # the cyclic garbage collector's own time
@@ -87,10 +101,12 @@ def main() -> None:
     n = args.serves
     print(f"{args.player}: {1e3 * total / n:.1f} CPU ms per serve ({n} serves, seed {args.seed})")
     rows = [(label, spent[label]) for label, _, _, _ in WRAPPED if label in spent]
-    rows.append(("these systems together", sum(cpu for _, cpu in rows)))
+    rows.append(("these systems together",
+                 sum(cpu for label, cpu in rows if not label.startswith(" "))))
     rows.append(("garbage collector", spent["garbage collector"]))
     for label, cpu in rows:
-        print(f"  {label:28s} {1e3 * cpu / n:6.1f} ms {100 * cpu / total:5.1f} %")
+        count = f"{calls[label] / n:7.1f} calls" if label in calls else ""
+        print(f"  {label:28s} {1e3 * cpu / n:6.1f} ms {100 * cpu / total:5.1f} % {count}")
 
 
 if __name__ == "__main__":

@@ -42,6 +42,9 @@ def test_reference_diagram_keeps_the_recipe_whatever_the_scenario():
     reference = ReferenceDiagram(scenario, 1.0)
     assert reference.simulator.get_integrator().get_target_accuracy() == 1e-4
     assert scenario.world.simulator.accuracy == 1e-3  # the scenario itself is left alone
+    from tt_drake.serves import ServeSampler
+
+    assert reference.run(ServeSampler("default").sample(3).launch_state, 0.25) == 0.25
 
 
 def test_parallel_timing_runs_every_serve_and_projects_from_the_steady_rate():
@@ -59,3 +62,44 @@ def test_parallel_timing_runs_every_serve_and_projects_from_the_steady_rate():
     assert p["core_share"] == pytest.approx(p["episode_wall"] / p["episode_cpu"])
     assert p["cpu_inflation"] == pytest.approx(p["episode_cpu"] / 0.5)
     assert p["between_episodes"] == pytest.approx(2 * p["wall_per_serve"] / p["episode_wall"])
+
+
+def test_alternation_runs_every_serve_on_every_diagram_in_rotating_order():
+    from tt_drake.diagrams.bench import _alternate
+
+    played = []
+
+    def runner(name):
+        def run(i):
+            played.append((name, i))
+            return 0.1 * i + {"a": 0.0, "b": 0.01, "c": 0.02}[name]
+        return run
+
+    out = _alternate({name: runner(name) for name in "abc"}, 4)
+    # One untimed warm-up each on serve 0, then serve by serve, the order rotating by one.
+    assert played[:3] == [("a", 0), ("b", 0), ("c", 0)]
+    assert out["calls"] == [("a", 0), ("b", 0), ("c", 0), ("b", 1), ("c", 1), ("a", 1),
+                            ("c", 2), ("a", 2), ("b", 2), ("a", 3), ("b", 3), ("c", 3)]
+    assert played[3:] == out["calls"]
+    # Each diagram's times and durations are listed in the order of the serves.
+    assert out["b"]["duration"] == pytest.approx([0.01, 0.11, 0.21, 0.31])
+    assert all(len(out[name]["cpu"]) == len(out[name]["wall"]) == 4 for name in "abc")
+
+
+def test_per_serve_ratios_are_summarised_by_their_quartiles():
+    from tt_drake.diagrams.bench import _spread
+
+    s = _spread([1.0, 4.0, 9.0, 16.0], [1.0, 2.0, 3.0, 4.0])  # ratios 1, 2, 3, 4
+    assert s == pytest.approx({"median": 2.5, "q1": 1.75, "q3": 3.25, "min": 1.0, "max": 4.0})
+
+
+def test_the_reference_runs_each_serve_for_the_projects_duration_of_it():
+    from tt_drake.diagrams.bench import run_bench
+
+    r = run_bench(load_scenario(), serves=2, seed=4, player="idle")
+    # The untimed pass that sets the reference's durations simulates what the timed pass does.
+    assert r["durations_equal"] == 2
+    s = r["per_serve_cpu_ratio_to_reference"]
+    assert s["min"] <= s["q1"] <= s["median"] <= s["q3"] <= s["max"]
+    assert r["cpu_ratio_project_to_reference"] == pytest.approx(
+        r["project"]["cpu_per_serve"] / r["reference"]["cpu_per_serve"])

@@ -65,3 +65,30 @@ def test_serve_comparison_flags_outcome_and_landing_changes():
     assert r["differ"][1]["fields"] == ["landing"]
     with pytest.raises(ValueError):
         compare_serve_records(a, _run(("missed", None)))
+
+
+def test_the_floors_stub_player_plays_the_recorded_setpoints():
+    """docs/examples/python_floor.py compares like with like: its stub systems hold the recorded
+    set-points, so the ball is returned to where the replay (and the player) returned it."""
+    from tt_drake.diagrams.bench import _record_setpoints, _replay_player
+    from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
+    from tt_drake.diagrams.scenario import load_scenario
+
+    spec = importlib.util.spec_from_file_location("example_floor", EXAMPLES / "python_floor.py")
+    floor = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(floor)
+    scenario = load_scenario()
+    seed = episode_seed(5, 0)
+    _, (trajectory,) = _record_setpoints(scenario, "analytical", [seed])
+    replay = ServeDiagram(scenario, _replay_player)
+    replay.diagram.GetSubsystemByName("setpoint_replay").UpdateTrajectory(trajectory)
+    expected = replay.run(seed).outcome
+    assert expected.hit and expected.landing is not None
+    table = floor.setpoint_table(trajectory)
+    np.testing.assert_array_equal(table[3], trajectory.value(3 * floor.SERVO_PERIOD).ravel())
+    for stubbed in (floor.floor_diagram(scenario), floor.merged_floor_diagram(scenario)):
+        stubbed.diagram.GetSubsystemByName("stub_player").table = table
+        got = stubbed.run(seed).outcome
+        # The same set-points; the stubs' events cut the integrator's steps elsewhere.
+        assert got.outcome == expected.outcome and got.hit
+        np.testing.assert_allclose(got.landing, expected.landing, atol=1e-3)
