@@ -667,13 +667,12 @@ def _evaluate(run: Run, folder: Path, scenario, label: str, dist: str, serves: i
               desc: str) -> tuple[dict, list[dict]]:
     """The learned player on one evaluation set; with the protocol's ceiling (or the set in its
     ``ceiling_sets``), also relative to the oracle teacher's returnable serves on the same serves
-    (played once per run, in ``DIR/ceiling/<label>``)."""
-    dealt = _dealt(scenario, dist, seed) if run.protocol.ceiling else scenario
-    episodes = run.rollouts(folder, dealt, "momp", serves, seed, desc=desc)
+    (played once per run, in ``DIR/ceiling/<label>``). A pool's serves are dealt as ``tt-drake
+    serve --seed`` deals them, so the report's command replays the figure."""
+    episodes = run.rollouts(folder, _dealt(scenario, dist, seed), "momp", serves, seed, desc=desc)
     out = {**rates(episodes), "seed": seed, "distribution": dist}
     if run.protocol.ceiling or label in run.protocol.ceiling_sets:
-        oracle_scenario = (_dealt(run.scenario(), dist, seed) if run.protocol.ceiling
-                           else copy.deepcopy(scenario))
+        oracle_scenario = _dealt(run.scenario(), dist, seed)
         oracle_scenario.perception = "oracle"
         oracle = run.rollouts(run.folder("ceiling") / label, oracle_scenario, "analytical",
                               serves, seed, desc=f"oracle teacher ({label} serves)")

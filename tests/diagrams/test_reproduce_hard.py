@@ -165,13 +165,14 @@ def test_the_paper_profiles_real_serves_come_with_the_oracles_ceiling_on_the_sam
     momp = [c for c in recorder.calls if c["player"] == "momp"]
     oracle = [c for c in recorder.calls if c["player"] == "analytical"]
     # only the real set gets a ceiling, played on the momp player's serves: the same
-    # distribution, count and seeds, and no deal of the pool (the paper's serves as they were)
+    # distribution, count and seeds, the pool dealt as `tt-drake serve --seed` deals it (the
+    # report's command replays the figure)
     real = next(m for m in momp if m["distribution"] == "real")
     serves = ("distribution", "run_seed", "serves", "seed")
     assert [[o[k] for k in serves] for o in oracle] == [[real[k] for k in serves]]
     assert oracle[0]["perception"] == "oracle" and real["perception"] != "oracle"
     assert oracle[0]["folder"] == run.folder("ceiling") / "real"
-    assert real["run_seed"] == rp._learned(run).launcher.run_seed
+    assert real["run_seed"] == real["seed"] == run.config.real_seed
     # every serve returned by the recorder's even-numbered episodes, oracle and momp alike
     assert final["real"]["returnable_serves"] == (real["serves"] + 1) // 2
     assert final["real"]["return_rate_of_returnable"] == 1.0
