@@ -44,7 +44,8 @@ paper's x = (p_hit, v_hit), or with the predicted spin at impact appended (``spi
 
 Ports: inputs ``p_hit`` (3), ``v_hit`` (3), ``t_hit`` (1, absolute) and ``spin_hit`` (3, needed
 only by a stimulus with spin) from the HittingPointPredictor, ``theta_hit`` (7),
-``theta_dot_hit`` (7) and ``configuration_valid`` (1) from HittingConfiguration, ``arm_state``
+``theta_dot_hit`` (7), ``configuration_valid`` (1) and ``theta_dot_hit_spinless`` (7, optional:
+tried when a move of the goal is refused) from HittingConfiguration, ``arm_state``
 (14: measured q, q_dot; optional, for the hold); outputs
 ``desired_state`` (14: q, q_dot) and ``desired_acceleration`` (7) for the
 InverseDynamicsController, ``stage`` (1: index into :data:`tt_drake.stages.STAGES`),
@@ -205,6 +206,9 @@ class MoMPTrajectorySource(StagePlanPlayer):
         self._qd_hit = self.DeclareVectorInputPort("theta_dot_hit", 7)
         self._valid = self.DeclareVectorInputPort("configuration_valid", 1)
         self._spin = self.DeclareVectorInputPort("spin_hit", 3)
+        # Optional: the goal's velocities without the spin's contact-point term
+        # (HittingConfiguration.theta_dot_hit_spinless), tried when a move of the goal is refused.
+        self._qd_spinless = self.DeclareVectorInputPort("theta_dot_hit_spinless", 7)
         # The measured arm state (q, q_dot), for the hold (MoMPConfig.hold_error); optional.
         self._arm_state = self.DeclareVectorInputPort("arm_state", 14)
         self._index = self.DeclareAbstractState(AbstractValue.Make(_State(self.awaiting_plan())))
@@ -298,7 +302,9 @@ class MoMPTrajectorySource(StagePlanPlayer):
         stroke's goal (re-planning thresholds) moves the hitting DMP's goal if the plan that
         comes of it stays inside the joint and effort limits; otherwise the stroke keeps its
         goal and the move is tried again at the next tick (a re-plan refused before the hitting
-        stage is tried here too); with ``retry_period``, only once the prediction or
+        stage is tried here too). A refused move is tried once more with
+        ``theta_dot_hit_spinless`` when that input is connected and differs (the stroke then
+        records ``spinless``); with ``retry_period``, only once the prediction or
         configuration has moved past the re-planning thresholds since the refusal, or that long
         after it. Returns :data:`_NOTHING` when it changes no state."""
         if self._valid.Eval(context)[0] < 0.5:
@@ -317,20 +323,30 @@ class MoMPTrajectorySource(StagePlanPlayer):
                          (now, np.array(p_hit), t_hit, np.array(q_hit), np.array(qd_hit)))
         spin = self._spin.Eval(context) if self._spin.HasValue(context) else None
         x = compose_stimulus(self.stimulus, p_hit, self._v.Eval(context), spin)
-        try:
-            new, idx, nu = move_hitting_goal(now, old.plan, x, t_hit, q_hit, qd_hit,
-                                             self.library, self.stages, self.q_await,
-                                             self.limits, self.config.times)
-        except ValueError:
-            state.get_mutable_abstract_state(self._index).set_value(refused)
-            return None
-        ahead = StagePlan([(s, seg) for s, seg in new.segments if seg.t0 >= now])
-        if not (within_limits(ahead, self.limits) and self._within_effort(new, now)):
-            state.get_mutable_abstract_state(self._index).set_value(refused)
-            return None
-        stroke = MoMPStroke(x, t_hit, np.array(q_hit), np.array(qd_hit), idx, nu,
-                            old.stroke.replans + 1, False)
-        state.get_mutable_abstract_state(self._index).set_value(_State(new, stroke, False, seen))
+        # The goal's velocities tried in turn: the configuration's, then (if connected and
+        # different) the racket that does not follow the spinning ball's contact point.
+        tries = [(np.array(qd_hit), False)]
+        if self._qd_spinless.HasValue(context):
+            qd_spinless = np.array(self._qd_spinless.Eval(context))
+            if (float(np.abs(qd_spinless - qd_hit).max()) > self.config.replan_configuration
+                    and self._needs_replan(old.stroke, p_hit, t_hit, q_hit, qd_spinless)):
+                tries.append((qd_spinless, True))
+        for qd_goal, spinless in tries:
+            try:
+                new, idx, nu = move_hitting_goal(now, old.plan, x, t_hit, q_hit, qd_goal,
+                                                 self.library, self.stages, self.q_await,
+                                                 self.limits, self.config.times)
+            except ValueError:
+                continue
+            ahead = StagePlan([(s, seg) for s, seg in new.segments if seg.t0 >= now])
+            if within_limits(ahead, self.limits) and self._within_effort(new, now):
+                stroke = MoMPStroke(x, t_hit, np.array(q_hit), qd_goal, idx, nu,
+                                    old.stroke.replans + 1, False, spinless=spinless)
+                state.get_mutable_abstract_state(self._index).set_value(
+                    _State(new, stroke, False, seen))
+                return None
+        state.get_mutable_abstract_state(self._index).set_value(refused)
+        return None
 
     def _hold_if_lost(self, context, state, old: _State, now: float) -> bool:
         """The safety behaviour: if a measured joint is faster than ``hold_speed`` times its

@@ -85,3 +85,38 @@ def test_the_player_moves_its_goal_until_the_cutoff_only_with_a_cutoff():
         state = player.player_state(context)
         assert state.committed and state.stroke.replans == 2
         np.testing.assert_allclose(state.plan.evaluate(T_HIT + 0.01)[0], new_q, atol=1e-5)
+
+
+def test_a_refused_move_is_tried_with_the_spinless_velocities_when_connected():
+    """A move whose goal velocities leave the joint limits (12 rad/s on joint 1 against 10) is
+    refused; with ``theta_dot_hit_spinless`` connected the player then moves to the same
+    theta_hit with those velocities (feasible) and arrives there at the new t_hit; without the
+    input it keeps its goal. A feasible spin-aware move is taken as it is."""
+    new_q, new_t = Q_HIT + 0.03, T_HIT + 0.01
+    too_fast = QD_HIT.copy()
+    too_fast[0] = 12.0
+    spinless = QD_HIT - 0.2
+    for connected in (False, True):
+        player, context, _, _, stimuli = _stroke_under_way(MoMPConfig(goal_cutoff=0.08))
+        fix_inputs(player, context, stimuli[0] + 0.02, new_t, new_q, too_fast)
+        if connected:
+            player.GetInputPort("theta_dot_hit_spinless").FixValue(context, spinless)
+        context.SetTime(context.get_time() + 0.004)
+        player.ExecuteForcedEvents(context)
+        state = player.player_state(context)
+        if not connected:  # refused: the stroke keeps its first goal
+            assert state.refused is not None and state.stroke.replans == 1
+            np.testing.assert_allclose(state.plan.evaluate(T_HIT)[0], Q_HIT, atol=1e-3)
+            continue
+        assert state.refused is None and state.stroke.spinless and state.stroke.replans == 2
+        np.testing.assert_array_equal(state.stroke.qd_hit, spinless)
+        q, qd, _ = state.plan.evaluate(new_t)
+        np.testing.assert_allclose(q, new_q, atol=1e-5)
+        np.testing.assert_allclose(qd, spinless, atol=1e-3)
+        # The spin-aware goal becomes feasible: the next tick takes it, no longer spinless.
+        fix_inputs(player, context, stimuli[0] + 0.02, new_t, new_q, QD_HIT)
+        context.SetTime(context.get_time() + 0.004)
+        player.ExecuteForcedEvents(context)
+        state = player.player_state(context)
+        assert not state.stroke.spinless and state.stroke.replans == 3
+        np.testing.assert_allclose(state.plan.evaluate(new_t)[1], QD_HIT, atol=1e-3)
