@@ -20,6 +20,8 @@ Two sources, chosen at construction:
   racket without that tangential term (the joint velocities at theta_hit for the racket velocity
   minus the tangential part of omega x (-R n)), which the player tries when the move to
   (theta_hit, theta_dot_hit) is refused: a return that lands off target rather than a miss.
+  When no spin-aware stroke is within the arm's reach and joint speeds, the configuration is the
+  spinless one (both velocity outputs equal).
 
 The CrKR stimulus is the model's layout (:mod:`tt_drake.stimulus`, recorded in its artefact):
 (p_hit, v_hit), or with the predicted spin at impact ``spin_hit`` appended.
@@ -94,6 +96,11 @@ class HittingConfiguration(LeafSystem):
             return q, qd, qd
         spin = np.zeros(3) if spin_hit is None else np.asarray(spin_hit, dtype=float)
         stroke = self.planner.stroke(p_hit, v_hit, t_hit, spin, None)
+        if stroke is None and np.any(spin):
+            # No racket that follows the spinning contact point is within the arm's reach or
+            # joint speeds (low real serves with 100+ rad/s of topspin): the spinless one.
+            spin = np.zeros(3)
+            stroke = self.planner.stroke(p_hit, v_hit, t_hit, spin, None)
         if stroke is None:
             return None
         if not np.any(spin):

@@ -86,3 +86,33 @@ def test_the_spinless_velocities_take_out_the_contact_point_term_only(planner):
     a, _ = configuration(planner, use_spin=False)
     b, _ = configuration(planner, use_spin=False, velocities="theta_dot_hit_spinless")
     np.testing.assert_allclose(a, b, atol=1e-12)
+
+
+class _NoSpinReach:
+    """A planner for which no spin-aware stroke is reachable (as for low real serves with 100+
+    rad/s of topspin); spinless strokes are the real planner's."""
+
+    def __init__(self, planner):
+        self.planner, self.arm, self.calls = planner, planner.arm, []
+
+    def stroke(self, p_hit, v_hit, t_hit, spin, previous):
+        self.calls.append(np.array(spin))
+        return None if np.any(spin) else self.planner.stroke(p_hit, v_hit, t_hit, spin, previous)
+
+
+def test_without_a_reachable_spin_aware_stroke_the_configuration_is_the_spinless_one(planner):
+    fake = _NoSpinReach(planner)
+    a = HittingConfiguration("analytical", planner=fake, use_spin=True)
+    b = HittingConfiguration("analytical", planner=planner, use_spin=False)
+    outputs = []
+    for config in (a, b):
+        context = config.CreateDefaultContext()
+        for name, value in (("p_hit", P_HIT), ("v_hit", V_HIT), ("t_hit", [T_HIT]),
+                            ("valid", [1.0]), ("spin_hit", SPIN)):
+            config.GetInputPort(name).FixValue(context, value)
+        outputs.append([config.GetOutputPort(n).Eval(context).copy() for n in
+                        ("theta_hit", "theta_dot_hit", "valid", "theta_dot_hit_spinless")])
+    assert [bool(np.any(s)) for s in fake.calls] == [True, False]  # spin first, then without
+    for x, y in zip(*outputs, strict=True):
+        np.testing.assert_allclose(x, y, atol=1e-12)
+    assert outputs[0][2][0] == 1.0
