@@ -224,7 +224,9 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     else:
         config = PlannerConfig(target_x=scenario.referee.target_x,
                                target_y=scenario.referee.target_y)
-        configuration = HittingConfiguration("analytical", planner=StrokePlanner(config=config))
+        # With the moving goal (the hard protocol) the teacher's aim gets the predicted spin.
+        configuration = HittingConfiguration("analytical", planner=StrokePlanner(config=config),
+                                             use_spin=scenario.learned.moving_goal)
     configuration = builder.AddNamedSystem("hitting_configuration", configuration)
     crkr = learned.get("crkr")
     player = builder.AddNamedSystem("momp_player", MoMPTrajectorySource(
@@ -243,6 +245,10 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
         builder.Connect(configuration.GetOutputPort(name), player.GetInputPort(name))
     builder.Connect(configuration.GetOutputPort("valid"),
                     player.GetInputPort("configuration_valid"))
+    if configuration.uses_spin and primitives:
+        # A move refused with the spin-aware racket is tried with the spinless one.
+        builder.Connect(configuration.GetOutputPort("theta_dot_hit_spinless"),
+                        player.GetInputPort("theta_dot_hit_spinless"))
     add_servo_hold(builder, player.GetOutputPort("setpoint"), controller)
     return seeded
 
@@ -305,7 +311,8 @@ def stroke_summary(stroke) -> dict | None:
             "primitives": [int(i) for i in stroke.primitives],
             "mixture": [round(float(w), 6) for w in stroke.mixture],
             "replans": int(stroke.replans), "fallback": bool(stroke.fallback),
-            **({"held": True} if stroke.held else {})}
+            **({"held": True} if stroke.held else {}),
+            **({"spinless": True} if stroke.spinless else {})}
 
 
 class ServeDiagram:

@@ -9,9 +9,19 @@ Two sources, chosen at construction:
   ``tt-drake train crkr`` on the teacher's successful strokes;
 - ``"analytical"``: the teacher's aim + racket law + IK
   (:meth:`tt_drake.systems.analytical_player.StrokePlanner.stroke`) on the same predicted stimulus.
-  The ball is taken as spinless here (the teacher itself uses the spin its physical model gives
-  the bounce; this is a documented difference, kept so that the paper profile's row is unchanged,
-  although the predictor's ``spin_hit`` would now give it).
+  By default the ball is taken as spinless here, so that the paper profile's row is unchanged.
+  With ``use_spin`` (the hard protocol's player, ``LearnedPlayerConfig.moving_goal``) the
+  predictor's ``spin_hit`` is given to the aim (the Magnus force of the return flight) and to the
+  racket law (the racket's tangential velocity matches the spinning ball's contact point), as the
+  teacher does: a spinless aim on `spin` serves scattered the learned player's landings by 28 cm
+  laterally (docs/learned_player.md, "Why the hard player's returns scatter"). Matching a
+  spinning ball's contact point can ask the racket for 2-3 m/s more, which a late move of the
+  moving goal may not fit into the effort budget: ``theta_dot_hit_spinless`` is then the same
+  racket without that tangential term (the joint velocities at theta_hit for the racket velocity
+  minus the tangential part of omega x (-R n)), which the player tries when the move to
+  (theta_hit, theta_dot_hit) is refused: a return that lands off target rather than a miss.
+  When no spin-aware stroke is within the arm's reach and joint speeds, the configuration is the
+  spinless one (both velocity outputs equal).
 
 The CrKR stimulus is the model's layout (:mod:`tt_drake.stimulus`, recorded in its artefact):
 (p_hit, v_hit), or with the predicted spin at impact ``spin_hit`` appended.
@@ -19,7 +29,8 @@ The CrKR stimulus is the model's layout (:mod:`tt_drake.stimulus`, recorded in i
 Ports: inputs ``p_hit`` (3), ``v_hit`` (3), ``t_hit`` (1, absolute), ``valid`` (1) and
 ``spin_hit`` (3, read only by a CrKR model whose stimulus has the spin) from
 :class:`tt_drake.systems.hitting_point_predictor.HittingPointPredictor`; outputs ``theta_hit``
-(7), ``theta_dot_hit`` (7) and ``valid`` (1). It has no state: the outputs are a function of the
+(7), ``theta_dot_hit`` (7), ``valid`` (1) and ``theta_dot_hit_spinless`` (7: ``theta_dot_hit``
+unless ``use_spin``). It has no state: the outputs are a function of the
 inputs, cached by Drake until the predictor publishes another prediction, and solved once per
 prediction (the three ports share one solution), so a player reads the configuration of the
 prediction it reads, at the same tick.
@@ -28,16 +39,17 @@ prediction it reads, at the same tick.
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
+from tt_drake.constants import BALL
 from tt_drake.learned_player import ConfigurationModel
 from tt_drake.stimulus import PAPER_STIMULUS, compose_stimulus
 
 SOURCES = ("crkr", "analytical")
-_NO_ANSWER = np.zeros(15)
+_NO_ANSWER = np.zeros(22)
 
 
 class HittingConfiguration(LeafSystem):
     def __init__(self, source: str = "crkr", model: ConfigurationModel | None = None,
-                 planner=None):
+                 planner=None, use_spin: bool = False):
         super().__init__()
         if source not in SOURCES:
             raise ValueError(f"unknown hitting-configuration source {source!r}; "
@@ -55,10 +67,12 @@ class HittingConfiguration(LeafSystem):
         self._valid = self.DeclareVectorInputPort("valid", 1)
         self._spin = self.DeclareVectorInputPort("spin_hit", 3)
         self._layout = getattr(model, "stimulus", PAPER_STIMULUS)
-        self._uses_spin = source == "crkr" and "spin_hit" in self._layout
+        self._uses_spin = (source == "crkr" and "spin_hit" in self._layout) or (
+            source == "analytical" and use_spin)
         self._memo: tuple = (None, _NO_ANSWER)  # (stimulus, answer): a pure function's cache
         deps = {self.all_input_ports_ticket()}
-        for name, lo, hi in (("theta_hit", 0, 7), ("theta_dot_hit", 7, 14), ("valid", 14, 15)):
+        for name, lo, hi in (("theta_hit", 0, 7), ("theta_dot_hit", 7, 14), ("valid", 14, 15),
+                             ("theta_dot_hit_spinless", 15, 22)):
             self.DeclareVectorOutputPort(name, hi - lo, self._copy(lo, hi),
                                          prerequisites_of_calc=deps)
 
@@ -68,17 +82,39 @@ class HittingConfiguration(LeafSystem):
 
         return calc
 
+    @property
+    def uses_spin(self) -> bool:
+        """Whether the answer depends on the ``spin_hit`` input."""
+        return self._uses_spin
+
     def solve(self, p_hit, v_hit, t_hit, spin_hit=None):
-        """(theta_hit, theta_dot_hit) or None if the source has no answer (IK failed)."""
+        """(theta_hit, theta_dot_hit, theta_dot_hit_spinless) or None if the source has no
+        answer (IK failed)."""
         if self.source == "crkr":
             s = compose_stimulus(self._layout, p_hit, v_hit, spin_hit)
             q, qd, _ = self.model.predict(s, variance=False)
-            return q, qd
-        stroke = self.planner.stroke(p_hit, v_hit, t_hit, np.zeros(3), None)
-        return None if stroke is None else (stroke.q_hit, stroke.qd_hit)
+            return q, qd, qd
+        spin = np.zeros(3) if spin_hit is None else np.asarray(spin_hit, dtype=float)
+        stroke = self.planner.stroke(p_hit, v_hit, t_hit, spin, None)
+        if stroke is None and np.any(spin):
+            # No racket that follows the spinning contact point is within the arm's reach or
+            # joint speeds (low real serves with 100+ rad/s of topspin): the spinless one.
+            spin = np.zeros(3)
+            stroke = self.planner.stroke(p_hit, v_hit, t_hit, spin, None)
+        if stroke is None:
+            return None
+        if not np.any(spin):
+            return stroke.q_hit, stroke.qd_hit, stroke.qd_hit
+        # The racket law's tangential term for the spinning contact point, taken out.
+        n = stroke.racket_normal
+        slip = np.cross(spin, -BALL.radius * n)
+        velocity = stroke.racket_velocity - (slip - (slip @ n) * n)
+        return (stroke.q_hit, stroke.qd_hit,
+                self.planner.arm.joint_velocities_free_spin(stroke.q_hit, velocity))
 
     def _answer(self, context) -> np.ndarray:
-        """``[theta_hit (7), theta_dot_hit (7), valid]`` for the inputs' prediction."""
+        """``[theta_hit (7), theta_dot_hit (7), valid, theta_dot_hit_spinless (7)]`` for the
+        inputs' prediction."""
         if self._valid.Eval(context)[0] < 0.5:
             return _NO_ANSWER
         stimulus = (*self._p.Eval(context), *self._v.Eval(context), self._t.Eval(context)[0])
@@ -88,6 +124,7 @@ class HittingConfiguration(LeafSystem):
             return self._memo[1]
         solved = self.solve(np.array(stimulus[:3]), np.array(stimulus[3:6]), stimulus[6],
                             np.array(stimulus[7:10]) if len(stimulus) == 10 else None)
-        answer = _NO_ANSWER if solved is None else np.r_[solved[0], solved[1], 1.0]
+        answer = (_NO_ANSWER if solved is None
+                  else np.r_[solved[0], solved[1], 1.0, solved[2]])
         self._memo = (stimulus, answer)
         return answer

@@ -27,7 +27,11 @@ same hitting configuration; ``MoMPStroke.fallback`` records it.
 With the moving goal (``goal_cutoff``) the hitting stage's goal follows new predictions until the
 cut-off (:func:`tt_drake.learned_player.move_hitting_goal`); a refused move is tried again at
 the next planning tick (with ``retry_period``: only once the prediction or configuration moved
-past the re-planning thresholds, or that long after the refusal). Safety: with the measured arm
+past the re-planning thresholds, or that long after the refusal). When the hitting
+configuration also gives ``theta_dot_hit_spinless`` (the teacher's IK with the predicted spin:
+the racket without the spinning contact point's tangential term), a plan or move that does not
+fit the limits with ``theta_dot_hit`` is tried with those velocities (``MoMPStroke.spinless``);
+after such a move the stroke keeps to them until the hit. Safety: with the measured arm
 state connected (``arm_state``), a joint faster than ``hold_speed`` times its velocity limit or
 more than ``hold_error`` from the plan (the arm no longer follows it: a saturated joint under
 the inverse-dynamics controller) ends the stroke: the player plays
@@ -44,7 +48,8 @@ paper's x = (p_hit, v_hit), or with the predicted spin at impact appended (``spi
 
 Ports: inputs ``p_hit`` (3), ``v_hit`` (3), ``t_hit`` (1, absolute) and ``spin_hit`` (3, needed
 only by a stimulus with spin) from the HittingPointPredictor, ``theta_hit`` (7),
-``theta_dot_hit`` (7) and ``configuration_valid`` (1) from HittingConfiguration, ``arm_state``
+``theta_dot_hit`` (7), ``configuration_valid`` (1) and ``theta_dot_hit_spinless`` (7, optional:
+tried when a move of the goal is refused) from HittingConfiguration, ``arm_state``
 (14: measured q, q_dot; optional, for the hold); outputs
 ``desired_state`` (14: q, q_dot) and ``desired_acceleration`` (7) for the
 InverseDynamicsController, ``stage`` (1: index into :data:`tt_drake.stages.STAGES`),
@@ -156,15 +161,17 @@ def momp_config(moving_goal: bool = False) -> MoMPConfig:
 class _State(Immutable):
     """``seen``: the prediction (t_hit, p_hit) last acted on; the player does nothing more until
     the predictor publishes another. ``refused``: the last refused move of the goal (time,
-    p_hit, t_hit, theta_hit, theta_dot_hit), None after an accepted one."""
+    p_hit, t_hit, theta_hit, theta_dot_hit), None after an accepted one. ``spinless_move``: a
+    move of the goal during the hitting stage took the spinless velocities; the stroke keeps to
+    them until the hit."""
 
-    __slots__ = ("plan", "stroke", "committed", "seen", "refused")
+    __slots__ = ("plan", "stroke", "committed", "seen", "refused", "spinless_move")
 
     def __init__(self, plan: StagePlan, stroke: MoMPStroke | None = None,
                  committed: bool = False, seen: tuple | None = None,
-                 refused: tuple | None = None):
+                 refused: tuple | None = None, spinless_move: bool = False):
         self.plan, self.stroke, self.committed, self.seen = plan, stroke, committed, seen
-        self.refused = refused
+        self.refused, self.spinless_move = refused, spinless_move
 
 
 def joint_limits() -> JointLimits:
@@ -205,6 +212,9 @@ class MoMPTrajectorySource(StagePlanPlayer):
         self._qd_hit = self.DeclareVectorInputPort("theta_dot_hit", 7)
         self._valid = self.DeclareVectorInputPort("configuration_valid", 1)
         self._spin = self.DeclareVectorInputPort("spin_hit", 3)
+        # Optional: the goal's velocities without the spin's contact-point term
+        # (HittingConfiguration.theta_dot_hit_spinless), tried when a move of the goal is refused.
+        self._qd_spinless = self.DeclareVectorInputPort("theta_dot_hit_spinless", 7)
         # The measured arm state (q, q_dot), for the hold (MoMPConfig.hold_error); optional.
         self._arm_state = self.DeclareVectorInputPort("arm_state", 14)
         self._index = self.DeclareAbstractState(AbstractValue.Make(_State(self.awaiting_plan())))
@@ -279,6 +289,15 @@ class MoMPTrajectorySource(StagePlanPlayer):
         x = compose_stimulus(self.stimulus, p_hit, v_hit, spin)
         preparing = plan.stage_at(now) == PREPARATION
         new, idx, nu = self._plan_primitives(now, plan, x, t_hit, q_hit, qd_hit, preparing)
+        spinless = False
+        if new is None and self.library is not None and self._qd_spinless.HasValue(context):
+            # No primitive plan fits the limits with the spin-aware racket: try the racket that
+            # does not follow the spinning ball's contact point (HittingConfiguration).
+            qd_spinless = np.array(self._qd_spinless.Eval(context))
+            if float(np.abs(qd_spinless - qd_hit).max()) > self.config.replan_configuration:
+                alt = self._plan_primitives(now, plan, x, t_hit, q_hit, qd_spinless, preparing)
+                if alt[0] is not None:
+                    (new, idx, nu), qd_hit, spinless = alt, qd_spinless, True
         fallback = new is None and self.library is not None
         if new is None:
             if fallback and old.stroke is not None:
@@ -289,7 +308,7 @@ class MoMPTrajectorySource(StagePlanPlayer):
                 idx, nu = np.zeros(0, dtype=int), np.zeros(0)
         replans = 1 if old.stroke is None else old.stroke.replans + 1
         stroke = MoMPStroke(x, t_hit, np.array(q_hit), np.array(qd_hit), idx, nu, replans,
-                            fallback)
+                            fallback, spinless=spinless)
         abstract.set_value(_State(StagePlan(plan.truncated(now).segments + new.segments), stroke,
                                   False, seen))
 
@@ -298,7 +317,10 @@ class MoMPTrajectorySource(StagePlanPlayer):
         stroke's goal (re-planning thresholds) moves the hitting DMP's goal if the plan that
         comes of it stays inside the joint and effort limits; otherwise the stroke keeps its
         goal and the move is tried again at the next tick (a re-plan refused before the hitting
-        stage is tried here too); with ``retry_period``, only once the prediction or
+        stage is tried here too). A refused move is tried once more with
+        ``theta_dot_hit_spinless`` when that input is connected and differs (the stroke then
+        records ``spinless`` and moves on those velocities until the hit). With
+        ``retry_period``, a refused move is tried again only once the prediction or
         configuration has moved past the re-planning thresholds since the refusal, or that long
         after it. Returns :data:`_NOTHING` when it changes no state."""
         if self._valid.Eval(context)[0] < 0.5:
@@ -306,6 +328,12 @@ class MoMPTrajectorySource(StagePlanPlayer):
         p_hit, t_hit = self._p.Eval(context), float(self._t.Eval(context)[0])
         seen = (t_hit, float(p_hit[0]), float(p_hit[1]), float(p_hit[2]))
         q_hit, qd_hit = self._q_hit.Eval(context), self._qd_hit.Eval(context)
+        # Once a move of the goal took the spinless velocities, the stroke keeps to them until
+        # the hit: no switching between two goal velocities from tick to tick (one refused, the
+        # other accepted, and back).
+        sticky = old.spinless_move and self._qd_spinless.HasValue(context)
+        if sticky:
+            qd_hit = self._qd_spinless.Eval(context)
         if (t_hit - now < self.config.goal_cutoff
                 or not self._needs_replan(old.stroke, p_hit, t_hit, q_hit, qd_hit)):
             return _NOTHING
@@ -314,23 +342,34 @@ class MoMPTrajectorySource(StagePlanPlayer):
                 and not self._moved(old.refused[1:], p_hit, t_hit, q_hit, qd_hit)):
             return _NOTHING
         refused = _State(old.plan, old.stroke, False, old.seen,
-                         (now, np.array(p_hit), t_hit, np.array(q_hit), np.array(qd_hit)))
+                         (now, np.array(p_hit), t_hit, np.array(q_hit), np.array(qd_hit)),
+                         old.spinless_move)
         spin = self._spin.Eval(context) if self._spin.HasValue(context) else None
         x = compose_stimulus(self.stimulus, p_hit, self._v.Eval(context), spin)
-        try:
-            new, idx, nu = move_hitting_goal(now, old.plan, x, t_hit, q_hit, qd_hit,
-                                             self.library, self.stages, self.q_await,
-                                             self.limits, self.config.times)
-        except ValueError:
-            state.get_mutable_abstract_state(self._index).set_value(refused)
-            return None
-        ahead = StagePlan([(s, seg) for s, seg in new.segments if seg.t0 >= now])
-        if not (within_limits(ahead, self.limits) and self._within_effort(new, now)):
-            state.get_mutable_abstract_state(self._index).set_value(refused)
-            return None
-        stroke = MoMPStroke(x, t_hit, np.array(q_hit), np.array(qd_hit), idx, nu,
-                            old.stroke.replans + 1, False)
-        state.get_mutable_abstract_state(self._index).set_value(_State(new, stroke, False, seen))
+        # The goal's velocities tried in turn: the configuration's, then (if connected and
+        # different) the racket that does not follow the spinning ball's contact point.
+        tries = [(np.array(qd_hit), sticky)]
+        if not sticky and self._qd_spinless.HasValue(context):
+            qd_spinless = np.array(self._qd_spinless.Eval(context))
+            if (float(np.abs(qd_spinless - qd_hit).max()) > self.config.replan_configuration
+                    and self._needs_replan(old.stroke, p_hit, t_hit, q_hit, qd_spinless)):
+                tries.append((qd_spinless, True))
+        for qd_goal, spinless in tries:
+            try:
+                new, idx, nu = move_hitting_goal(now, old.plan, x, t_hit, q_hit, qd_goal,
+                                                 self.library, self.stages, self.q_await,
+                                                 self.limits, self.config.times)
+            except ValueError:
+                continue
+            ahead = StagePlan([(s, seg) for s, seg in new.segments if seg.t0 >= now])
+            if within_limits(ahead, self.limits) and self._within_effort(new, now):
+                stroke = MoMPStroke(x, t_hit, np.array(q_hit), qd_goal, idx, nu,
+                                    old.stroke.replans + 1, False, spinless=spinless)
+                state.get_mutable_abstract_state(self._index).set_value(
+                    _State(new, stroke, False, seen, spinless_move=spinless))
+                return None
+        state.get_mutable_abstract_state(self._index).set_value(refused)
+        return None
 
     def _hold_if_lost(self, context, state, old: _State, now: float) -> bool:
         """The safety behaviour: if a measured joint is faster than ``hold_speed`` times its

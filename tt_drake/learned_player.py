@@ -225,6 +225,9 @@ class MoMPStroke:
     # The measured arm left the plan (``MoMPConfig.hold_error``): the stroke was abandoned and
     # the arm held (``MoMPTrajectorySource.hold_plan``).
     held: bool = False
+    # The last move of the goal took the racket velocity without the spin's contact-point term
+    # (``HittingConfiguration.theta_dot_hit_spinless``): the spin-aware one was refused.
+    spinless: bool = False
 
 
 def plan_momp_stroke(now: float, state, stimulus, t_hit: float, q_hit, qd_hit,

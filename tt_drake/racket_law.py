@@ -93,6 +93,31 @@ def ball_after_racket(v_in, racket: RacketState) -> np.ndarray:
     return v_in + (1.0 + racket.restitution) * rel_n * n
 
 
+def landing_after_racket(p_hit, v_in, racket: RacketState, spin=(0.0, 0.0, 0.0),
+                         model: BallModel | None = None, max_time: float = 2.0
+                         ) -> np.ndarray | None:
+    """Where the ball first lands on the table after ``racket`` meets it at ``p_hit``: the impact
+    law forward (:func:`ball_after_racket`), then free flight under ``model`` with the ball's
+    ``spin`` (kept through the hit, as :func:`aim_candidates` assumes) to its first table impact.
+    Returns (x, y) of the ball's centre there, or None if it reaches the floor (misses the
+    table) or ``max_time`` passes first. The inverse of the teacher's aim: for the racket of
+    :func:`racket_for_return` on an aim's ``v_out`` it returns the aim's target."""
+    model = model or BallModel()
+    pos = tuple(float(c) for c in p_hit)
+    vel = tuple(float(c) for c in ball_after_racket(v_in, racket))
+    w = tuple(float(c) for c in spin)
+    t, h = 0.0, model.dt
+    while t < max_time:
+        new_p, new_v = model.flight_step(pos, vel, w, h)
+        impact = model.table_impact(pos, vel, w, h, new_p, new_v)
+        if impact is not None:
+            return np.array(impact[1][:2])
+        if new_p[2] < model.params.radius:
+            return None
+        pos, vel, t = new_p, new_v, t + h
+    return None
+
+
 @dataclass(frozen=True)
 class ReturnAim:
     """An outgoing ball velocity and what it achieves."""

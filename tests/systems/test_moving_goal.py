@@ -85,3 +85,70 @@ def test_the_player_moves_its_goal_until_the_cutoff_only_with_a_cutoff():
         state = player.player_state(context)
         assert state.committed and state.stroke.replans == 2
         np.testing.assert_allclose(state.plan.evaluate(T_HIT + 0.01)[0], new_q, atol=1e-5)
+
+
+def test_a_refused_move_is_tried_with_the_spinless_velocities_when_connected():
+    """A move whose goal velocities leave the joint limits (12 rad/s on joint 1 against 10) is
+    refused; with ``theta_dot_hit_spinless`` connected the player then moves to the same
+    theta_hit with those velocities (feasible) and arrives there at the new t_hit, and keeps
+    to the spinless velocities until the hit; without the input it keeps its goal."""
+    new_q, new_t = Q_HIT + 0.03, T_HIT + 0.01
+    too_fast = QD_HIT.copy()
+    too_fast[0] = 12.0
+    spinless = QD_HIT - 0.2
+    for connected in (False, True):
+        player, context, _, _, stimuli = _stroke_under_way(MoMPConfig(goal_cutoff=0.08))
+        fix_inputs(player, context, stimuli[0] + 0.02, new_t, new_q, too_fast)
+        if connected:
+            player.GetInputPort("theta_dot_hit_spinless").FixValue(context, spinless)
+        context.SetTime(context.get_time() + 0.004)
+        player.ExecuteForcedEvents(context)
+        state = player.player_state(context)
+        if not connected:  # refused: the stroke keeps its first goal
+            assert state.refused is not None and state.stroke.replans == 1
+            np.testing.assert_allclose(state.plan.evaluate(T_HIT)[0], Q_HIT, atol=1e-3)
+            continue
+        assert state.refused is None and state.stroke.spinless and state.stroke.replans == 2
+        np.testing.assert_array_equal(state.stroke.qd_hit, spinless)
+        q, qd, _ = state.plan.evaluate(new_t)
+        np.testing.assert_allclose(q, new_q, atol=1e-5)
+        np.testing.assert_allclose(qd, spinless, atol=1e-3)
+        # From then on the stroke follows the spinless velocities, even when the spin-aware
+        # goal becomes feasible (no switching between the two goals until the hit).
+        fix_inputs(player, context, stimuli[0] + 0.02, new_t, new_q, QD_HIT)
+        context.SetTime(context.get_time() + 0.004)
+        player.ExecuteForcedEvents(context)
+        state = player.player_state(context)
+        assert state.stroke.spinless and state.stroke.replans == 2
+        later = spinless + 0.1  # a new spinless goal is moved to
+        player.GetInputPort("theta_dot_hit_spinless").FixValue(context, later)
+        context.SetTime(context.get_time() + 0.004)
+        player.ExecuteForcedEvents(context)
+        state = player.player_state(context)
+        assert state.stroke.spinless and state.stroke.replans == 3
+        np.testing.assert_allclose(state.plan.evaluate(new_t)[1], later, atol=1e-3)
+
+
+def test_a_first_plan_outside_the_limits_takes_the_spinless_velocities_when_connected():
+    """No primitive plan fits the joint limits with the configuration's velocities (12 rad/s on
+    joint 1): without ``theta_dot_hit_spinless`` the player falls back to the teacher's quintics;
+    with it, the primitives carry the stroke to theta_hit with those velocities."""
+    library, stages, stimuli = synthetic_library()
+    too_fast = QD_HIT.copy()
+    too_fast[0] = 12.0
+    spinless = QD_HIT - 0.2
+    for connected in (False, True):
+        player = MoMPTrajectorySource(library, stages, config=MoMPConfig(goal_cutoff=0.08))
+        context = player.CreateDefaultContext()
+        fix_inputs(player, context, stimuli[0], T_HIT, Q_HIT, too_fast)
+        if connected:
+            player.GetInputPort("theta_dot_hit_spinless").FixValue(context, spinless)
+        context.SetTime(0.1)
+        player.ExecuteForcedEvents(context)
+        stroke = player.player_state(context).stroke
+        assert stroke.fallback != connected and stroke.spinless == connected
+        if connected:
+            np.testing.assert_array_equal(stroke.qd_hit, spinless)
+            q, qd, _ = player.player_state(context).plan.evaluate(T_HIT)
+            np.testing.assert_allclose(q, Q_HIT, atol=1e-3)
+            np.testing.assert_allclose(qd, spinless, atol=2e-2)

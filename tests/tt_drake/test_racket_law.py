@@ -8,6 +8,7 @@ from tt_drake.constants import NET, TABLE, TARGET
 from tt_drake.racket_law import (
     aim_return,
     ball_after_racket,
+    landing_after_racket,
     net_clearance,
     racket_for_return,
     racket_restitution,
@@ -79,3 +80,21 @@ def test_net_clearance_sign():
 def test_no_impact_needed_is_an_error():
     with pytest.raises(ValueError):
         racket_for_return([1.0, 2.0, 3.0], [1.0, 2.0, 3.0])
+
+
+@pytest.mark.parametrize("spin", [(0.0, 0.0, 0.0), (140.0, 28.0, -57.0), (-60.0, 0.0, 30.0)])
+def test_landing_after_racket_inverts_the_aim(spin):
+    """The racket the teacher plans for an aim lands the (spinning) ball at the aim's target; a
+    racket turned 3 degrees about the vertical lands it measurably to the side; one that sends
+    the ball upward at 6 m/s misses the table (None)."""
+    p_hit, v_in = np.array([0.3, -1.82, 1.0]), np.array([0.2, -4.5, 1.5])
+    aim = aim_return(p_hit, v_in, spin=spin, model=MODEL)
+    racket = racket_for_return(v_in, aim.v_out, spin)
+    landed = landing_after_racket(p_hit, v_in, racket, spin, MODEL)
+    assert np.linalg.norm(landed - (TARGET.x, TARGET.y)) < 0.005
+    c, s = np.cos(np.radians(3.0)), np.sin(np.radians(3.0))
+    turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    turned = type(racket)(turn @ racket.normal, turn @ racket.velocity, racket.restitution)
+    assert abs(landing_after_racket(p_hit, v_in, turned, spin, MODEL)[0] - landed[0]) > 0.05
+    up = type(racket)(np.array([0.0, 0.0, 1.0]), np.array([0.0, 0.0, 6.0]), 0.8)
+    assert landing_after_racket(p_hit, v_in, up, spin, MODEL) is None
