@@ -176,6 +176,20 @@ def load_learned_player(scenario: Scenario, primitives: bool = True, keep: bool 
     return out
 
 
+def connect_hitting_chain(builder: DiagramBuilder, predictor, configuration, player) -> None:
+    """Wire the learned player's chain by port name: the predicted virtual hitting point
+    (``p_hit``, ``v_hit``, ``t_hit``, ``valid``, ``spin_hit``) into the hitting configuration and
+    the player, the configuration (``theta_hit``, ``theta_dot_hit``, ``valid``) into the player."""
+    for name in ("p_hit", "v_hit", "t_hit", "valid", "spin_hit"):
+        builder.Connect(predictor.GetOutputPort(name), configuration.GetInputPort(name))
+    for name in ("p_hit", "v_hit", "t_hit", "spin_hit"):
+        builder.Connect(predictor.GetOutputPort(name), player.GetInputPort(name))
+    for name in ("theta_hit", "theta_dot_hit"):
+        builder.Connect(configuration.GetOutputPort(name), player.GetInputPort(name))
+    builder.Connect(configuration.GetOutputPort("valid"),
+                    player.GetInputPort("configuration_valid"))
+
+
 def _learned_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario,
                     primitives: bool = True) -> list:
     """The learned player (paper Fig. 1): camera -> estimator -> GPR hitting-point predictor ->
@@ -237,14 +251,7 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     # The measured arm: the player holds when the arm no longer follows its plan.
     builder.Connect(world.plant.get_state_output_port(world.robot),
                     player.GetInputPort("arm_state"))
-    for name in ("p_hit", "v_hit", "t_hit", "valid", "spin_hit"):
-        builder.Connect(predictor.GetOutputPort(name), configuration.GetInputPort(name))
-    for name in ("p_hit", "v_hit", "t_hit", "spin_hit"):
-        builder.Connect(predictor.GetOutputPort(name), player.GetInputPort(name))
-    for name in ("theta_hit", "theta_dot_hit"):
-        builder.Connect(configuration.GetOutputPort(name), player.GetInputPort(name))
-    builder.Connect(configuration.GetOutputPort("valid"),
-                    player.GetInputPort("configuration_valid"))
+    connect_hitting_chain(builder, predictor, configuration, player)
     if configuration.uses_spin and primitives:
         # A move refused with the spin-aware racket is tried with the spinless one.
         builder.Connect(configuration.GetOutputPort("theta_dot_hit_spinless"),

@@ -47,7 +47,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import EventStatus, LeafSystem
 
 from tt_drake.diagrams.bench import ReferenceDiagram, _alternate, _record_setpoints, _replay_player
-from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
+from tt_drake.diagrams.episodes import ServeDiagram, connect_hitting_chain, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.models import use_artefact_set
 from tt_drake.serves import ServeSampler
@@ -85,7 +85,23 @@ class StubCamera(LeafSystem):
         output.SetFromVector(context.get_discrete_state(self._xd).get_value())
 
 
-class StubEstimator(LeafSystem):
+class _SlicedState(LeafSystem):
+    """A stub whose discrete state is a vector and whose outputs are named slices of it, each
+    recomputed only when the state changes."""
+
+    def _declare_slices(self, slices) -> None:
+        deps = {self.xd_ticket()}
+        for name, lo, hi in slices:
+            self.DeclareVectorOutputPort(name, hi - lo, self._slice(lo, hi),
+                                         prerequisites_of_calc=deps)
+
+    def _slice(self, lo, hi):
+        def calc(context, output):
+            output.SetFromVector(context.get_discrete_state(self._xd).get_value()[lo:hi])
+        return calc
+
+
+class StubEstimator(_SlicedState):
     """Discrete update every ``period`` (the planning rate's, as BallFlightEstimator): a new
     frame is copied into the state, else DidNothing; outputs ``state`` (6), ``spin`` (3),
     ``status`` (2: tracking, time), as BallFlightEstimator."""
@@ -95,15 +111,7 @@ class StubEstimator(LeafSystem):
         self._u = self.DeclareVectorInputPort("measurement", 5)
         self._xd = self.DeclareDiscreteState(np.zeros(11))
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
-        deps = {self.xd_ticket()}
-        for name, lo, hi in (("state", 0, 6), ("spin", 6, 9), ("status", 9, 11)):
-            self.DeclareVectorOutputPort(name, hi - lo, self._slice(lo, hi),
-                                         prerequisites_of_calc=deps)
-
-    def _slice(self, lo, hi):
-        def calc(context, output):
-            output.SetFromVector(context.get_discrete_state(self._xd).get_value()[lo:hi])
-        return calc
+        self._declare_slices((("state", 0, 6), ("spin", 6, 9), ("status", 9, 11)))
 
     def _update(self, context, discrete_state):
         u = self._u.Eval(context)
@@ -117,7 +125,7 @@ class StubEstimator(LeafSystem):
         discrete_state.set_value(self._xd, new)
 
 
-class StubPredictor(LeafSystem):
+class StubPredictor(_SlicedState):
     """Discrete update every ``period`` (the planning rate's, as HittingPointPredictor): a new
     estimate is copied into the state, else DidNothing; outputs ``p_hit``, ``v_hit``, ``t_hit``,
     ``valid``, ``final``, ``spin_hit`` as HittingPointPredictor (never valid: the stub player
@@ -130,16 +138,8 @@ class StubPredictor(LeafSystem):
         self._status = self.DeclareVectorInputPort("status", 2)
         self._xd = self.DeclareDiscreteState(np.zeros(14))
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
-        deps = {self.xd_ticket()}
-        for name, lo, hi in (("p_hit", 0, 3), ("v_hit", 3, 6), ("t_hit", 6, 7), ("valid", 7, 8),
-                             ("final", 8, 9), ("spin_hit", 9, 12)):
-            self.DeclareVectorOutputPort(name, hi - lo, self._slice(lo, hi),
-                                         prerequisites_of_calc=deps)
-
-    def _slice(self, lo, hi):
-        def calc(context, output):
-            output.SetFromVector(context.get_discrete_state(self._xd).get_value()[lo:hi])
-        return calc
+        self._declare_slices((("p_hit", 0, 3), ("v_hit", 3, 6), ("t_hit", 6, 7), ("valid", 7, 8),
+                              ("final", 8, 9), ("spin_hit", 9, 12)))
 
     def _update(self, context, discrete_state):
         status = self._status.Eval(context)
@@ -250,14 +250,7 @@ def _floor_player(vision: bool, vision_at_frames: bool = False):
             for name in ("state", "spin", "status"):
                 builder.Connect(estimator.GetOutputPort(name), predictor.GetInputPort(name))
             configuration = builder.AddNamedSystem("stub_configuration", StubConfiguration())
-            for name in ("p_hit", "v_hit", "t_hit", "valid", "spin_hit"):
-                builder.Connect(predictor.GetOutputPort(name), configuration.GetInputPort(name))
-            for name in ("p_hit", "v_hit", "t_hit", "spin_hit"):
-                builder.Connect(predictor.GetOutputPort(name), player.GetInputPort(name))
-            for name in ("theta_hit", "theta_dot_hit"):
-                builder.Connect(configuration.GetOutputPort(name), player.GetInputPort(name))
-            builder.Connect(configuration.GetOutputPort("valid"),
-                            player.GetInputPort("configuration_valid"))
+            connect_hitting_chain(builder, predictor, configuration, player)
             builder.Connect(world.plant.get_state_output_port(world.robot),
                             player.GetInputPort("arm_state"))
         else:
