@@ -121,12 +121,15 @@ class PlannerConfig:
 #: otherwise predicted to miss it (and to cross the hitting plane half a metre low).
 TABLE_EDGE_PRIOR = 0.05
 
-#: The planner's ball-model step (s), one planning tick. Its RK4 steps locate the bounces and the
-#: hitting plane exactly within a step, so the step sets only the integration error: from the
-#: states the player predicts from, 4 ms gives the same stimulus as 2 ms to 1e-9 m and 1e-11 s
-#: (docs/performance.md, "Seventh pass") in half the steps, and a prediction is most of what the
-#: teacher computes per camera frame.
-PREDICTION_STEP = 4e-3
+#: The planner's ball-model step (s). Its RK4 steps locate the bounces and the hitting plane
+#: exactly within a step, so the step sets only the integration error: from the states the
+#: player predicts from, 10 ms gives the same stimulus as 2 ms to ~2e-9 m and ~4e-10 s
+#: (docs/performance.md, "Seventh pass") in a fifth of the steps, and a prediction is most of
+#: what the teacher computes per camera frame.
+PREDICTION_STEP = 0.01
+#: The step (s) of the test for a bounce behind the ball (``hitting_time.bounced_on_robot_half``,
+#: which looks at the path once a step): 2 ms, ~1 cm of the ball's travel, at the table's edges.
+BOUNCE_TEST_STEP = 2e-3
 
 
 def planner_ball_model(dt: float = PREDICTION_STEP) -> BallModel:
@@ -177,7 +180,7 @@ class StrokePlanner:
             hit = self.model.predict_plane(np.r_[state6, w], PLANES.hitting_y)
         else:  # the plane when it serves, else a point along the path (tt_drake.hitting_time)
             hit = choose_hitting_point(self.model, np.r_[state6, w], PLANES.hitting_y,
-                                       self.config.band)
+                                       self.config.band, bounce_step=BOUNCE_TEST_STEP)
         if hit is None:
             return None
         return hit.position, hit.velocity, t_state + hit.t, hit.spin, bool(hit.bounces)

@@ -6,9 +6,11 @@
 Plays ``--serves`` analytical serves (recorded, as the teacher stage plays them) and keeps every
 (estimate, time, spin) the player predicted from; then predicts from each again
 (``StrokePlanner.predict``: the hitting point along the path, ``bounced_on_robot_half`` included)
-with the planner's model at 2 ms and at each ``--steps``, and prints the CPU time per prediction,
-how many predictions differ in having a hitting point, and the largest difference to the 2 ms
-prediction in position (m), velocity (m/s), time (s) and spin (rad/s). Used for
+with the planner's model at 2 ms and at each ``--steps``, the test for a bounce behind the ball
+at that step or at the player's 2 ms (``BOUNCE_TEST_STEP``), the variants alternating prediction
+by prediction; prints the CPU time per prediction, how many predictions differ in having a
+hitting point, and the largest difference to the 2 ms prediction in position (m), velocity
+(m/s), time (s) and spin (rad/s). Used for
 docs/performance.md (seventh pass: ``analytical_player.PREDICTION_STEP``).
 """
 
@@ -21,8 +23,10 @@ import time
 import numpy as np
 
 import tt_drake.systems.analytical_player as ap
+from tt_drake.constants import PLANES
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
+from tt_drake.hitting_time import HittingBand, choose_hitting_point
 
 
 def recorded_predictions(serves: int, seed: int, perception: str, distribution: str) -> list:
@@ -47,6 +51,17 @@ def recorded_predictions(serves: int, seed: int, perception: str, distribution: 
     return calls
 
 
+def _predict(model, bounce_step, state6, t_state, spin):
+    """``StrokePlanner.predict`` with ``model`` and the bounce test at ``bounce_step``."""
+    state6 = np.asarray(state6, dtype=float)
+    if state6[4] >= 0.0 or state6[1] <= PLANES.hitting_y:
+        return None
+    w = np.zeros(3) if spin is None else np.asarray(spin, dtype=float)
+    hit = choose_hitting_point(model, np.r_[state6, w], PLANES.hitting_y, HittingBand(),
+                               bounce_step=bounce_step)
+    return None if hit is None else (hit.position, hit.velocity, t_state + hit.t, hit.spin)
+
+
 def main() -> None:
     ap_ = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap_.add_argument("--serves", type=int, default=3)
@@ -56,29 +71,36 @@ def main() -> None:
     ap_.add_argument("--steps", type=float, nargs="+", default=[0.004, 0.01])
     args = ap_.parse_args()
     calls = recorded_predictions(args.serves, args.seed, args.perception, args.distribution)
-
-    def run(dt):
-        planner = ap.StrokePlanner(arm=object(), model=ap.planner_ball_model(dt))
-        c0 = time.process_time()
-        out = [planner.predict(s, t, w) for s, t, w in calls]
-        return out, (time.process_time() - c0) / len(calls)
-
-    reference, cpu_ref = run(2e-3)
+    # (label, forward step, bounce-test step): the old 2 ms for both first.
+    variants = [("2 ms", 2e-3, 2e-3)]
+    for dt in args.steps:
+        variants.append((f"{1e3 * dt:g} ms, bounce test {1e3 * dt:g} ms", dt, dt))
+        variants.append((f"{1e3 * dt:g} ms, bounce test {1e3 * ap.BOUNCE_TEST_STEP:g} ms", dt,
+                         ap.BOUNCE_TEST_STEP))
+    models = [ap.planner_ball_model(dt) for _, dt, _ in variants]
+    out = [[] for _ in variants]
+    cpu = [0.0] * len(variants)
+    for i, (s, t, w) in enumerate(calls):  # each prediction by every variant, order rotating
+        for j in range(len(variants)):
+            k = (i + j) % len(variants)
+            c0 = time.process_time()
+            out[k].append(_predict(models[k], variants[k][2], s, t, w))
+            cpu[k] += time.process_time() - c0
+    reference = out[0]
     hits = sum(r is not None for r in reference)
     print(f"{len(calls)} predictions of {args.serves} {args.distribution} serves "
           f"({args.perception}, seed {args.seed}), {hits} with a hitting point; "
-          f"2 ms: {1e3 * cpu_ref:.3f} CPU ms per prediction")
-    for dt in args.steps:
-        out, cpu = run(dt)
-        differ = sum((a is None) != (b is None) for a, b in zip(reference, out, strict=True))
-        both = [(a, b) for a, b in zip(reference, out, strict=True)
+          f"2 ms: {1e3 * cpu[0] / len(calls):.3f} CPU ms per prediction")
+    for (label, _, _), results, spent in zip(variants[1:], out[1:], cpu[1:], strict=True):
+        differ = sum((a is None) != (b is None) for a, b in zip(reference, results, strict=True))
+        both = [(a, b) for a, b in zip(reference, results, strict=True)
                 if a is not None and b is not None]
         worst = [max((float(np.max(np.abs(np.subtract(b[k], a[k])))) for a, b in both),
                      default=0.0) for k in range(4)]
-        print(f"  {1e3 * dt:g} ms: {1e3 * cpu:.3f} CPU ms per prediction ({cpu_ref / cpu:.2f}x); "
-              f"{differ} differ in having a hitting point; largest difference: position "
-              f"{worst[0]:.1e} m, velocity {worst[1]:.1e} m/s, time {worst[2]:.1e} s, spin "
-              f"{worst[3]:.1e} rad/s")
+        print(f"  {label}: {1e3 * spent / len(calls):.3f} CPU ms per prediction "
+              f"({cpu[0] / spent:.2f}x); {differ} differ in having a hitting point; largest "
+              f"difference: position {worst[0]:.1e} m, velocity {worst[1]:.1e} m/s, time "
+              f"{worst[2]:.1e} s, spin {worst[3]:.1e} rad/s")
 
 
 if __name__ == "__main__":

@@ -5,9 +5,11 @@ import numpy as np
 import pytest
 
 from tt_drake.constants import PLANES
+from tt_drake.hitting_time import bounced_on_robot_half
 from tt_drake.racket_law import aim_candidates
 from tt_drake.serves import FIXED_SERVE
 from tt_drake.systems.analytical_player import (
+    BOUNCE_TEST_STEP,
     PREDICTION_STEP,
     AnalyticalPlayer,
     StrokePlanner,
@@ -39,6 +41,23 @@ def test_the_prediction_step_moves_the_stimulus_by_less_than_a_micrometre(k):
     assert b[2] == pytest.approx(a[2], abs=1e-7)  # s
     np.testing.assert_allclose(b[3], a[3], rtol=0, atol=1e-4)  # rad/s
     assert b[4] == a[4]
+
+
+def test_a_bounce_just_behind_the_net_is_seen_at_the_bounce_tests_step():
+    """The ball bounced 3 cm behind the net and flew on for 0.1 s: the test for a bounce behind
+    it, stepping back 2 ms at a time, finds it; at the prediction's 10 ms step it would reach the
+    net's plane first and miss it (and the player would not strike). The player tests at 2 ms."""
+    model = planner_ball_model()
+    pos = (0.0, -0.03, model.params.table_z + model.params.radius)
+    vel, w = (0.0, -5.0, 2.0), (0.0, 0.0, 0.0)
+    for _ in range(1000):
+        pos, vel = model.flight_step(pos, vel, w, 1e-4)
+    state = np.r_[pos, vel, w]
+    assert BOUNCE_TEST_STEP == 2e-3 < PREDICTION_STEP
+    assert bounced_on_robot_half(model, state, step=BOUNCE_TEST_STEP)
+    assert not bounced_on_robot_half(model, state, step=PREDICTION_STEP)
+    hit = StrokePlanner(arm=object()).predict(state[:6], 0.0, state[6:])
+    assert hit is not None and hit[0][1] == pytest.approx(PLANES.hitting_y)
 
 
 def test_the_states_cover_a_point_off_the_plane():
