@@ -2,6 +2,7 @@
 
     OPENBLAS_NUM_THREADS=1 python docs/examples/teacher_prediction_step.py [--serves 3]
         [--seed 3] [--perception oracle] [--distribution default] [--steps 0.004 0.01]
+        [--in-serves N]
 
 Plays ``--serves`` analytical serves (recorded, as the teacher stage plays them) and keeps every
 (estimate, time, spin) the player predicted from; then predicts from each again
@@ -10,7 +11,11 @@ with the planner's model at 2 ms and at each ``--steps``, the test for a bounce 
 at that step or at the player's 2 ms (``BOUNCE_TEST_STEP``), the variants alternating prediction
 by prediction; prints the CPU time per prediction, how many predictions differ in having a
 hitting point, and the largest difference to the 2 ms prediction in position (m), velocity
-(m/s), time (s) and spin (rad/s). Used for
+(m/s), time (s) and spin (rad/s).
+
+With ``--in-serves N`` it instead plays N serves twice each, the player's model at 2 ms and at
+``PREDICTION_STEP`` (the order alternating serve by serve, in one process), and prints the CPU
+time of the player's predictions and of the whole serve per serve for each. Used for
 docs/performance.md (seventh pass: ``analytical_player.PREDICTION_STEP``).
 """
 
@@ -51,6 +56,47 @@ def recorded_predictions(serves: int, seed: int, perception: str, distribution: 
     return calls
 
 
+def in_serves(serves: int, seed: int, perception: str, distribution: str) -> None:
+    """The predictions' and the serves' CPU per serve at 2 ms and at ``PREDICTION_STEP``."""
+    scenario = load_scenario()
+    scenario = dataclasses.replace(scenario, perception=perception, launcher=dataclasses.replace(
+        scenario.launcher, distribution=distribution))
+    spent = {True: 0.0, False: 0.0}
+    total = {True: 0.0, False: 0.0}
+    calls = {True: 0, False: 0}
+    current = [True]
+    original = ap.StrokePlanner.predict
+
+    def predict(self, *a):
+        c0 = time.process_time()
+        try:
+            return original(self, *a)
+        finally:
+            spent[current[0]] += time.process_time() - c0
+            calls[current[0]] += 1
+
+    ap.StrokePlanner.predict = predict
+    try:
+        diagram = ServeDiagram(scenario, "analytical", record=True)
+        planner = diagram.diagram.GetSubsystemByName("analytical_player").planner
+        diagram.run(episode_seed(seed, 0))
+        for on in (True, False):
+            spent[on], calls[on] = 0.0, 0
+        for i in range(serves):
+            for on in ((True, False) if i % 2 else (False, True)):
+                current[0] = on
+                planner.model = ap.planner_ball_model(ap.PREDICTION_STEP if on else 2e-3)
+                c0 = time.process_time()
+                diagram.run(episode_seed(seed, i))
+                total[on] += time.process_time() - c0
+    finally:
+        ap.StrokePlanner.predict = original
+    for on, label in ((False, "2 ms"), (True, f"{1e3 * ap.PREDICTION_STEP:g} ms")):
+        print(f"{label}: predictions {1e3 * spent[on] / serves:.1f} CPU ms per serve "
+              f"({calls[on] / serves:.1f} calls), serve {1e3 * total[on] / serves:.1f} CPU ms "
+              f"({serves} recorded {distribution} serves, {perception}, seed {seed})")
+
+
 def _predict(model, bounce_step, state6, t_state, spin):
     """``StrokePlanner.predict`` with ``model`` and the bounce test at ``bounce_step``."""
     state6 = np.asarray(state6, dtype=float)
@@ -69,7 +115,11 @@ def main() -> None:
     ap_.add_argument("--perception", default="oracle")
     ap_.add_argument("--distribution", default="default")
     ap_.add_argument("--steps", type=float, nargs="+", default=[0.004, 0.01])
+    ap_.add_argument("--in-serves", type=int, default=0, help="time the predictions in serves")
     args = ap_.parse_args()
+    if args.in_serves:
+        in_serves(args.in_serves, args.seed, args.perception, args.distribution)
+        return
     calls = recorded_predictions(args.serves, args.seed, args.perception, args.distribution)
     # (label, forward step, bounce-test step): the old 2 ms for both first.
     variants = [("2 ms", 2e-3, 2e-3)]
