@@ -49,9 +49,14 @@ from pydrake.common.value import AbstractValue
 
 from tt_drake import wam_params as wp
 from tt_drake.ball_model import BallModel, BallModelParams, CompliantBounceBallModel
-from tt_drake.constants import BALL, PLANES, TARGET
+from tt_drake.constants import BALL, PLANES, TABLE, TARGET
 from tt_drake.hitting_time import HittingBand, choose_hitting_point
-from tt_drake.racket_law import FLIGHT_TIMES, aim_candidates, racket_for_return
+from tt_drake.racket_law import (
+    FLIGHT_TIMES,
+    aim_candidates,
+    racket_for_return,
+    solve_outgoing_velocity,
+)
 from tt_drake.stages import (
     AWAITING,
     HITTING,
@@ -116,13 +121,23 @@ class PlannerConfig:
 #: otherwise predicted to miss it (and to cross the hitting plane half a metre low).
 TABLE_EDGE_PRIOR = 0.05
 
+#: The planner's ball-model step (s). Its RK4 steps locate the bounces and the hitting plane
+#: exactly within a step, so the step sets only the integration error: from the states the
+#: player predicts from, 10 ms gives the same stimulus as 2 ms to ~2e-9 m and ~4e-10 s
+#: (docs/performance.md, "Seventh pass") in a fifth of the steps, and a prediction is most of
+#: what the teacher computes per camera frame.
+PREDICTION_STEP = 0.01
+#: The step (s) of the test for a bounce behind the ball (``hitting_time.bounced_on_robot_half``,
+#: which looks at the path once a step): 2 ms, ~1 cm of the ball's travel, at the table's edges.
+BOUNCE_TEST_STEP = 2e-3
 
-def planner_ball_model() -> BallModel:
+
+def planner_ball_model(dt: float = PREDICTION_STEP) -> BallModel:
     params = BallModelParams()
     params = dataclasses.replace(
         params, table_half_length=params.table_half_length + TABLE_EDGE_PRIOR,
         table_half_width=params.table_half_width + TABLE_EDGE_PRIOR)
-    return CompliantBounceBallModel(params, dt=2e-3)
+    return CompliantBounceBallModel(params, dt=dt)
 
 
 class StrokePlanner:
@@ -165,7 +180,7 @@ class StrokePlanner:
             hit = self.model.predict_plane(np.r_[state6, w], PLANES.hitting_y)
         else:  # the plane when it serves, else a point along the path (tt_drake.hitting_time)
             hit = choose_hitting_point(self.model, np.r_[state6, w], PLANES.hitting_y,
-                                       self.config.band)
+                                       self.config.band, bounce_step=BOUNCE_TEST_STEP)
         if hit is None:
             return None
         return hit.position, hit.velocity, t_state + hit.t, hit.spin, bool(hit.bounces)
@@ -185,10 +200,18 @@ class StrokePlanner:
         # The ball touches the blade face when its centre is R + t/2 in front of the blade centre.
         contact_offset = BALL.radius + 0.5 * wp.RACKET.blade_thickness
         # Each flight time asks for another racket normal and speed: take the best one the arm
-        # reaches within its joint speed limits.
-        for aim in aim_candidates(p_hit, v_hit, (cfg.target_x, cfg.target_y),
-                                  flight_times=times, spin=spin):
-            racket = racket_for_return(v_hit, aim.v_out, spin)
+        # reaches within its joint speed limits. A correction keeps its flight time: its one
+        # outgoing velocity, with nothing to rank (aim_candidates' clearance and racket speed).
+        if close:
+            goal = (cfg.target_x, cfg.target_y, TABLE.surface_z + BALL.radius)
+            aims = [(solve_outgoing_velocity(p_hit, goal, previous.flight_time, spin=spin),
+                     previous.flight_time)]
+        else:
+            aims = [(aim.v_out, aim.flight_time)
+                    for aim in aim_candidates(p_hit, v_hit, (cfg.target_x, cfg.target_y),
+                                              flight_times=times, spin=spin)]
+        for v_out, flight_time in aims:  # noqa: B007 (the chosen one is used below)
+            racket = racket_for_return(v_hit, v_out, spin)
             ik = self.arm.solve(np.asarray(p_hit) - contact_offset * racket.normal,
                                 racket.normal, q_seed=seed)
             if not ik.success:
@@ -202,9 +225,9 @@ class StrokePlanner:
             return None  # the solver jumped to another arm configuration: keep the last stroke
         replans = previous.replans + 1 if previous is not None else 1
         return Stroke(np.asarray(p_hit), np.asarray(v_hit), float(t_hit), np.asarray(spin),
-                      aim.v_out,
+                      v_out,
                       racket.normal, racket.velocity, np.asarray(ik.q), np.asarray(qd_hit),
-                      ik.position_error, ik.angle_error, aim.flight_time, replans)
+                      ik.position_error, ik.angle_error, float(flight_time), replans)
 
     def needs_replan(self, previous: Stroke | None, p_hit, t_hit, spin=None) -> bool:
         """Whether a prediction moved from the one ``previous`` was planned on by more than
@@ -364,15 +387,19 @@ class AnalyticalPlayer(StagePlanPlayer):
         status = self._status.Eval(context)
         return status[0] > 0.5 and self._estimate.Eval(context)[4] > 0.0
 
-    def _fresh_prediction(self, context, state, old: _PlayerState, committed: bool):
+    def _fresh_prediction(self, context, state, old: _PlayerState, committed: bool,
+                          predict: bool = True):
         """(seen, the planner's prediction) from an estimate newer than the last one acted on,
-        which the state then records as seen; None if there is none or it predicts no hit."""
+        which the state then records as seen; None if there is none or it predicts no hit (or
+        ``predict`` is off: the estimate is only recorded as seen)."""
         status = self._status.Eval(context)
         seen = float(status[1])
         if status[0] < 0.5 or not seen > old.seen:
             return None
         state.get_mutable_abstract_state(self._state_index).set_value(
             _PlayerState(old.plan, old.stroke, committed, seen))
+        if not predict:
+            return None
         spin = self._spin.Eval(context) if self._spin.HasValue(context) else None
         prediction = self.planner.predict(self._estimate.Eval(context), seen, spin)
         return None if prediction is None else (seen, prediction)
@@ -382,12 +409,15 @@ class AnalyticalPlayer(StagePlanPlayer):
         racket forgives, until ``correct_lead`` before the hit (class docstring)."""
         if old.stroke is None:
             return
-        fresh = self._fresh_prediction(context, state, old, True)
+        cfg = self.planner.config
+        # Past the committed stroke's cut-off no prediction can correct it (the estimate is
+        # still recorded as seen): the teacher's frames from there to the episode's end.
+        before_cutoff = old.stroke.t_hit - now >= cfg.correct_lead
+        fresh = self._fresh_prediction(context, state, old, True, predict=before_cutoff)
         if fresh is None:
             return
         seen, (p_hit, v_hit, t_hit, spin, _) = fresh
-        cfg = self.planner.config
-        if (t_hit - now < cfg.correct_lead or old.stroke.t_hit - now < cfg.correct_lead
+        if (t_hit - now < cfg.correct_lead
                 or not self.planner.needs_correction(old.stroke, p_hit, t_hit, spin)):
             return
         stroke = self.planner.stroke(p_hit, v_hit, t_hit, spin, old.stroke)

@@ -45,20 +45,24 @@ class HittingBand:
     y_max: float = TABLE.robot_edge_y - 0.18  # m: and this far behind the robot's table edge
 
 
-def bounced_on_robot_half(model: BallModel, state, max_time: float = 1.0) -> bool:
+def bounced_on_robot_half(model: BallModel, state, max_time: float = 1.0,
+                          step: float | None = None) -> bool:
     """Whether a ball on the robot's half (y < 0) moving toward the robot has bounced there
-    already: followed back in time (the model's flight step with a negative step), it meets the
-    table before it gets back to the net's plane y = 0."""
+    already: followed back in time (the model's flight step with a negative step, ``step``
+    long: default the model's ``dt``), it meets the table before it gets back to the net's plane
+    y = 0. The test looks at the path every ``step``, so near the table's edges and the net it
+    is as fine as the ball's travel in one step."""
     s = np.asarray(state, dtype=float)
     if s[1] >= 0.0:
         return False
     p = model.params
     contact_z = p.table_z + p.radius
     pos, vel, w = tuple(s[0:3]), tuple(s[3:6]), tuple(s[6:9])
+    dt = model.dt if step is None else step
     t = 0.0
     while t < max_time:
-        pos, vel = model.flight_step(pos, vel, w, -model.dt)
-        t += model.dt
+        pos, vel = model.flight_step(pos, vel, w, -dt)
+        t += dt
         if pos[1] >= 0.0:
             return False
         if pos[2] <= contact_z and model.over_table(pos[0], pos[1]):
@@ -86,15 +90,16 @@ def _fall_through(t0, z0, vz0, t1, z1, vz1, level: float) -> float:
 
 
 def choose_hitting_point(model: BallModel, state, plane_y: float = PLANES.hitting_y,
-                         band: HittingBand | None = None,
-                         max_time: float = 3.0) -> PlaneCrossing | None:
+                         band: HittingBand | None = None, max_time: float = 3.0,
+                         bounce_step: float | None = None) -> PlaneCrossing | None:
     """The ball's state at the chosen hitting point (time relative to ``state``, the spin there
     and the bounces on the way), by the rule of the module docstring; or None.
 
     ``state``: (p, v, omega), 9 floats (or 6: no spin). Rule 3's point is where the ball falls
     through ``z_min`` for the last time in the window (located on the cubic Hermite interpolant
     of the model's steps, then integrated to exactly), so successive estimates of one flight
-    give the same point to the model's accuracy, not to a step."""
+    give the same point to the model's accuracy, not to a step. ``bounce_step``: the step of
+    :func:`bounced_on_robot_half`'s test (default the model's ``dt``)."""
     band = band or HittingBand()
     s = np.asarray(state, dtype=float).reshape(-1)
     if s.size == 6:
@@ -110,7 +115,7 @@ def choose_hitting_point(model: BallModel, state, plane_y: float = PLANES.hittin
     if end is None:
         return None
     robot = [b.t for b in end.bounces if b.position[1] < 0.0]
-    if bounced_on_robot_half(model, s):
+    if bounced_on_robot_half(model, s, step=bounce_step):
         start, stop_t = 0.0, (robot[0] if robot else end.t)
     elif robot:
         start, stop_t = robot[0], (robot[1] if len(robot) > 1 else end.t)

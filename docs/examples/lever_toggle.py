@@ -2,7 +2,7 @@
 passes).
 
     OPENBLAS_NUM_THREADS=1 python docs/examples/lever_toggle.py segments [--player momp]
-        [--serves 12] [--seed 3]
+        [--serves 12] [--seed 3] [--perception camera|oracle] [--distribution D] [--record]
 
 Builds the serve diagram once, runs one warm-up episode, then runs each serve twice, once with
 the lever and once without (the order alternating from serve to serve), and prints the CPU time
@@ -25,7 +25,18 @@ after the other do not. Levers:
 - ``fifth-pass``: the last three together;
 - ``guard``: the MoMP player's safety guard (session 8: the measured arm checked against the plan
   at every planning tick, ``MoMPConfig.hold_error``) on against off (off changes no outcome
-  unless a stroke would have been held).
+  unless a stroke would have been held);
+- ``prediction-step`` (analytical): the planner's ball model steps 4 ms
+  (``analytical_player.PREDICTION_STEP``) against 2 ms;
+- ``prediction-cutoff`` (analytical): no prediction once the committed stroke is past its
+  correction cut-off against predicting from every frame to the episode's end;
+- ``close-aim`` (analytical): a correction's stroke solves its one flight time's outgoing
+  velocity alone against ``aim_candidates`` on that one flight time (its clearance and racket
+  speed computed and not used);
+- ``seventh-pass``: the last three together.
+
+``--perception oracle --record`` plays the serves as the paper protocol's teacher stage does
+(``tt-drake collect --perception oracle``).
 
 It also counts the serves whose outcome and episode duration are equal both ways (``did-nothing``,
 ``setpoint-table``, ``hold-table`` and ``momp-did-nothing`` change no number; ``segments`` may
@@ -36,9 +47,13 @@ serves).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import importlib
 import statistics
 import time
+import types
+
+import numpy as np
 
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
@@ -47,6 +62,63 @@ from tt_drake.models import use_artefact_set
 _DID_NOTHING_MODULES = ("tt_drake.systems.ball_flight_estimator",
                         "tt_drake.systems.hitting_point_predictor")
 _PLAYERS = ("momp_player", "analytical_player")  # the crkr player is "momp_player" too
+
+
+def _stroke_before(self, p_hit, v_hit, t_hit, spin, previous):
+    """``StrokePlanner.stroke`` before the seventh pass: every stroke through aim_candidates."""
+    from tt_drake.constants import BALL
+    from tt_drake.racket_law import aim_candidates, racket_for_return
+    from tt_drake.systems.analytical_player import Stroke
+    from tt_drake.wam_params import RACKET
+
+    cfg = self.config
+    close = previous is not None and float(
+        np.linalg.norm(np.asarray(p_hit) - previous.p_hit)) < cfg.research_distance
+    times = (previous.flight_time,) if close else cfg.flight_times
+    seed = previous.q_hit if previous is not None else None
+    contact_offset = BALL.radius + 0.5 * RACKET.blade_thickness
+    for aim in aim_candidates(p_hit, v_hit, (cfg.target_x, cfg.target_y),
+                              flight_times=times, spin=spin):
+        racket = racket_for_return(v_hit, aim.v_out, spin)
+        ik = self.arm.solve(np.asarray(p_hit) - contact_offset * racket.normal,
+                            racket.normal, q_seed=seed)
+        if not ik.success:
+            continue
+        qd_hit = self.arm.joint_velocities_free_spin(ik.q, racket.velocity)
+        if np.all(np.abs(qd_hit) <= self.limits.velocity):
+            break
+    else:
+        return None
+    if close and (np.abs(ik.q - previous.q_hit).max() > self.config.max_branch_change):
+        return None
+    replans = previous.replans + 1 if previous is not None else 1
+    return Stroke(np.asarray(p_hit), np.asarray(v_hit), float(t_hit), np.asarray(spin),
+                  aim.v_out, racket.normal, racket.velocity, np.asarray(ik.q),
+                  np.asarray(qd_hit), ik.position_error, ik.angle_error, aim.flight_time,
+                  replans)
+
+
+def _correct_before(self, context, state, old, now):
+    """``AnalyticalPlayer._correct`` before the seventh pass: a prediction from every frame."""
+    from tt_drake.systems.analytical_player import _PlayerState
+
+    if old.stroke is None:
+        return
+    fresh = self._fresh_prediction(context, state, old, True)
+    if fresh is None:
+        return
+    seen, (p_hit, v_hit, t_hit, spin, _) = fresh
+    cfg = self.planner.config
+    if (t_hit - now < cfg.correct_lead or old.stroke.t_hit - now < cfg.correct_lead
+            or not self.planner.needs_correction(old.stroke, p_hit, t_hit, spin)):
+        return
+    stroke = self.planner.stroke(p_hit, v_hit, t_hit, spin, old.stroke)
+    if stroke is None:
+        return
+    plan = self.planner.correct(now, old.plan, stroke)
+    if plan is not None:
+        state.get_mutable_abstract_state(self._state_index).set_value(
+            _PlayerState(plan, stroke, True, seen))
 
 
 def toggles(diagram: ServeDiagram) -> dict:
@@ -84,12 +156,40 @@ def toggles(diagram: ServeDiagram) -> dict:
 
     import dataclasses
 
-    guarded = player().config
+    guarded = getattr(player(), "config", None)  # the MoMP player's
 
     def guard(on: bool) -> None:
         player().config = guarded if on else dataclasses.replace(guarded, hold_error=None)
 
-    return {"segments": segments, "did-nothing": did_nothing, "setpoint-table": setpoint_table,
+    def analytical():
+        return diagram.diagram.GetSubsystemByName("analytical_player")
+
+    def prediction_step(on: bool) -> None:
+        from tt_drake.systems.analytical_player import PREDICTION_STEP, planner_ball_model
+
+        analytical().planner.model = planner_ball_model(PREDICTION_STEP if on else 2e-3)
+
+    def prediction_cutoff(on: bool) -> None:
+        player = analytical()
+        if on:
+            player.__dict__.pop("_correct", None)  # the class's method
+        else:
+            player._correct = types.MethodType(_correct_before, player)
+
+    def close_aim(on: bool) -> None:
+        planner = analytical().planner
+        if on:
+            planner.__dict__.pop("stroke", None)
+        else:
+            planner.stroke = types.MethodType(_stroke_before, planner)
+
+    def seventh_pass(on: bool) -> None:
+        for lever in (prediction_step, prediction_cutoff, close_aim):
+            lever(on)
+
+    return {"prediction-step": prediction_step, "prediction-cutoff": prediction_cutoff,
+            "close-aim": close_aim, "seventh-pass": seventh_pass,
+            "segments": segments, "did-nothing": did_nothing, "setpoint-table": setpoint_table,
             "hold-table": hold_table, "momp-did-nothing": momp_did_nothing,
             "fifth-pass": fifth_pass, "guard": guard}
 
@@ -97,14 +197,24 @@ def toggles(diagram: ServeDiagram) -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("lever", choices=("segments", "did-nothing", "setpoint-table", "hold-table",
-                                      "momp-did-nothing", "fifth-pass", "guard"))
+                                      "momp-did-nothing", "fifth-pass", "guard",
+                                      "prediction-step", "prediction-cutoff", "close-aim",
+                                      "seventh-pass"))
     ap.add_argument("--player", default="momp")
     ap.add_argument("--serves", type=int, default=12)
     ap.add_argument("--seed", type=int, default=3)
+    ap.add_argument("--perception", default=None, help="camera or oracle (default: scenario's)")
+    ap.add_argument("--distribution", default=None, help="the launcher's serves (e.g. spin)")
+    ap.add_argument("--record", action="store_true", help="record demonstrations (collect's)")
     args = ap.parse_args()
     scenario = load_scenario()
+    if args.perception is not None:
+        scenario = dataclasses.replace(scenario, perception=args.perception)
+    if args.distribution is not None:
+        scenario = dataclasses.replace(scenario, launcher=dataclasses.replace(
+            scenario.launcher, distribution=args.distribution))
     use_artefact_set(scenario.learned)  # the shipped paper set, as `tt-drake serve` plays it
-    diagram = ServeDiagram(scenario, args.player)
+    diagram = ServeDiagram(scenario, args.player, record=args.record)
     toggle = toggles(diagram)[args.lever]
     diagram.run(episode_seed(args.seed, 0))
     cpu = {False: [], True: []}
@@ -121,7 +231,9 @@ def main() -> None:
     per_serve = [a / b for a, b in zip(cpu[False], cpu[True], strict=True)]
     same = sum(a == b for a, b in zip(results[False], results[True], strict=True))
     n = args.serves
-    print(f"{args.lever}, {args.player}, {n} serves (seed {args.seed}): without "
+    print(f"{args.lever}, {args.player} ({scenario.perception}, "
+          f"{scenario.launcher.distribution} serves{', recorded' if args.record else ''}), "
+          f"{n} serves (seed {args.seed}): without "
           f"{1e3 * off / n:.1f}, with {1e3 * on / n:.1f} CPU ms per serve; without / with "
           f"{off / on:.3f} (median per serve {statistics.median(per_serve):.3f}); outcome and "
           f"duration equal in {same} of {n}")

@@ -1,6 +1,10 @@
 """CPU time per serve of each Python system of the serve diagram, without a profiler.
 
     OPENBLAS_NUM_THREADS=1 python docs/examples/system_cpu.py momp [--serves 10] [--seed 3]
+        [--perception camera|oracle] [--distribution D] [--record]
+
+(``--perception oracle --record``: the serves as the paper protocol's teacher stage plays them,
+``tt-drake collect --perception oracle``: recorded, so not ended when the outcome is decided.)
 
 Wraps the update and output functions of the Python systems (EKF, hitting-point predictor,
 players, servo set-points, referee, the ContactAccuracy monitor; those a checkout lacks are left
@@ -40,6 +44,18 @@ WRAPPED = [
      "_within_effort"),
     ("  the hold's check", "tt_drake.systems.momp_player", "MoMPTrajectorySource",
      "_hold_if_lost"),
+    ("analytical planning tick", "tt_drake.systems.analytical_player", "AnalyticalPlayer",
+     "_update"),
+    ("  predictions", "tt_drake.systems.analytical_player", "StrokePlanner", "predict"),
+    ("  strokes (aim, racket, IK)", "tt_drake.systems.analytical_player", "StrokePlanner",
+     "stroke"),
+    ("  of which the aim", "tt_drake.systems.analytical_player", None, "aim_candidates"),
+    ("  of which the IK", "tt_drake.systems.hitting_ik", "HittingIK", "solve"),
+    ("  plans (before corrections)", "tt_drake.systems.analytical_player", "StrokePlanner",
+     "plan"),
+    ("  corrections' plans", "tt_drake.systems.analytical_player", "StrokePlanner", "correct"),
+    ("  feasibility checks", "tt_drake.systems.analytical_player", "StrokePlanner", "feasible"),
+    ("  of which effort", "tt_drake.systems.analytical_player", None, "within_effort"),
     ("servo set-points (state)", "tt_drake.systems.stage_player", "StagePlanPlayer",
      "_calc_state"),
     ("servo set-points (accel.)", "tt_drake.systems.stage_player", "StagePlanPlayer",
@@ -51,6 +67,18 @@ WRAPPED = [
 ]
 
 
+def with_serves(scenario, perception=None, distribution=None):
+    """The scenario with another perception (camera, oracle) and serve distribution, if given."""
+    import dataclasses
+
+    if perception is not None:
+        scenario = dataclasses.replace(scenario, perception=perception)
+    if distribution is not None:
+        scenario = dataclasses.replace(
+            scenario, launcher=dataclasses.replace(scenario.launcher, distribution=distribution))
+    return scenario
+
+
 def main() -> None:
     import importlib
 
@@ -58,6 +86,9 @@ def main() -> None:
     ap.add_argument("player")
     ap.add_argument("--serves", type=int, default=10)
     ap.add_argument("--seed", type=int, default=3)
+    ap.add_argument("--perception", default=None, help="camera or oracle (default: scenario's)")
+    ap.add_argument("--distribution", default=None, help="the launcher's serves (e.g. spin)")
+    ap.add_argument("--record", action="store_true", help="record demonstrations (collect's)")
     args = ap.parse_args()
     spent = defaultdict(float)
     calls = defaultdict(int)
@@ -78,9 +109,9 @@ def main() -> None:
                 calls[_label] += 1
 
         setattr(owner, name, functools.wraps(inner)(timed))
-    scenario = load_scenario()
+    scenario = with_serves(load_scenario(), args.perception, args.distribution)
     use_artefact_set(scenario.learned)  # the shipped paper set, as `tt-drake serve` plays it
-    diagram = ServeDiagram(scenario, args.player)
+    diagram = ServeDiagram(scenario, args.player, record=args.record)
     diagram.run(episode_seed(args.seed, 0))
     spent.clear()
     calls.clear()
@@ -99,7 +130,9 @@ def main() -> None:
     total = clock() - c0
     gc.callbacks.remove(gc_clock)
     n = args.serves
-    print(f"{args.player}: {1e3 * total / n:.1f} CPU ms per serve ({n} serves, seed {args.seed})")
+    print(f"{args.player} ({scenario.perception}, {scenario.launcher.distribution} serves"
+          f"{', recorded' if args.record else ''}): "
+          f"{1e3 * total / n:.1f} CPU ms per serve ({n} serves, seed {args.seed})")
     rows = [(label, spent[label]) for label, _, _, _ in WRAPPED if label in spent]
     rows.append(("these systems together",
                  sum(cpu for label, cpu in rows if not label.startswith(" "))))
