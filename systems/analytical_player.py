@@ -185,6 +185,20 @@ class StrokePlanner:
             return None
         return hit.position, hit.velocity, t_state + hit.t, hit.spin, bool(hit.bounces)
 
+    def aims(self, p_hit, v_hit, spin, previous: Stroke | None) -> list:
+        """The outgoing velocities to try, best first, as (v_out, flight time): every candidate
+        flight time ranked by :func:`tt_drake.racket_law.aim_candidates`; for a correction
+        (``previous``: a stroke whose hitting point barely moved) its flight time's one outgoing
+        velocity, with nothing to rank."""
+        cfg = self.config
+        if previous is not None:
+            goal = (cfg.target_x, cfg.target_y, TABLE.surface_z + BALL.radius)
+            return [(solve_outgoing_velocity(p_hit, goal, previous.flight_time, spin=spin),
+                     previous.flight_time)]
+        return [(aim.v_out, aim.flight_time)
+                for aim in aim_candidates(p_hit, v_hit, (cfg.target_x, cfg.target_y),
+                                          flight_times=cfg.flight_times, spin=spin)]
+
     def stroke(self, p_hit, v_hit, t_hit, spin, previous: Stroke | None) -> Stroke | None:
         """Aim, racket and arm for a stimulus; None if the arm cannot reach it, or if the
         hitting point barely moved but the solution jumped to another arm configuration (the
@@ -192,25 +206,14 @@ class StrokePlanner:
 
         Small corrections keep the previous flight time (one Broyden solve); a hitting point that
         moved more than ``research_distance`` searches all candidate flight times again."""
-        cfg = self.config
         close = previous is not None and float(
-            np.linalg.norm(np.asarray(p_hit) - previous.p_hit)) < cfg.research_distance
-        times = (previous.flight_time,) if close else cfg.flight_times
+            np.linalg.norm(np.asarray(p_hit) - previous.p_hit)) < self.config.research_distance
         seed = previous.q_hit if previous is not None else None
         # The ball touches the blade face when its centre is R + t/2 in front of the blade centre.
         contact_offset = BALL.radius + 0.5 * wp.RACKET.blade_thickness
         # Each flight time asks for another racket normal and speed: take the best one the arm
-        # reaches within its joint speed limits. A correction keeps its flight time: its one
-        # outgoing velocity, with nothing to rank (aim_candidates' clearance and racket speed).
-        if close:
-            goal = (cfg.target_x, cfg.target_y, TABLE.surface_z + BALL.radius)
-            aims = [(solve_outgoing_velocity(p_hit, goal, previous.flight_time, spin=spin),
-                     previous.flight_time)]
-        else:
-            aims = [(aim.v_out, aim.flight_time)
-                    for aim in aim_candidates(p_hit, v_hit, (cfg.target_x, cfg.target_y),
-                                              flight_times=times, spin=spin)]
-        for v_out, flight_time in aims:  # noqa: B007 (the chosen one is used below)
+        # reaches within its joint speed limits.
+        for v_out, flight_time in self.aims(p_hit, v_hit, spin, previous if close else None):  # noqa: B007 (the chosen one is used below)
             racket = racket_for_return(v_hit, v_out, spin)
             ik = self.arm.solve(np.asarray(p_hit) - contact_offset * racket.normal,
                                 racket.normal, q_seed=seed)

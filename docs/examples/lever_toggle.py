@@ -53,8 +53,6 @@ import statistics
 import time
 import types
 
-import numpy as np
-
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.models import use_artefact_set
@@ -64,38 +62,16 @@ _DID_NOTHING_MODULES = ("tt_drake.systems.ball_flight_estimator",
 _PLAYERS = ("momp_player", "analytical_player")  # the crkr player is "momp_player" too
 
 
-def _stroke_before(self, p_hit, v_hit, t_hit, spin, previous):
-    """``StrokePlanner.stroke`` before the seventh pass: every stroke through aim_candidates."""
-    from tt_drake.constants import BALL
-    from tt_drake.racket_law import aim_candidates, racket_for_return
-    from tt_drake.systems.analytical_player import Stroke
-    from tt_drake.wam_params import RACKET
+def _aims_before(self, p_hit, v_hit, spin, previous):
+    """``StrokePlanner.aims`` before the seventh pass: a correction's flight time ranked through
+    aim_candidates too."""
+    from tt_drake.racket_law import aim_candidates
 
     cfg = self.config
-    close = previous is not None and float(
-        np.linalg.norm(np.asarray(p_hit) - previous.p_hit)) < cfg.research_distance
-    times = (previous.flight_time,) if close else cfg.flight_times
-    seed = previous.q_hit if previous is not None else None
-    contact_offset = BALL.radius + 0.5 * RACKET.blade_thickness
-    for aim in aim_candidates(p_hit, v_hit, (cfg.target_x, cfg.target_y),
-                              flight_times=times, spin=spin):
-        racket = racket_for_return(v_hit, aim.v_out, spin)
-        ik = self.arm.solve(np.asarray(p_hit) - contact_offset * racket.normal,
-                            racket.normal, q_seed=seed)
-        if not ik.success:
-            continue
-        qd_hit = self.arm.joint_velocities_free_spin(ik.q, racket.velocity)
-        if np.all(np.abs(qd_hit) <= self.limits.velocity):
-            break
-    else:
-        return None
-    if close and (np.abs(ik.q - previous.q_hit).max() > self.config.max_branch_change):
-        return None
-    replans = previous.replans + 1 if previous is not None else 1
-    return Stroke(np.asarray(p_hit), np.asarray(v_hit), float(t_hit), np.asarray(spin),
-                  aim.v_out, racket.normal, racket.velocity, np.asarray(ik.q),
-                  np.asarray(qd_hit), ik.position_error, ik.angle_error, aim.flight_time,
-                  replans)
+    times = (previous.flight_time,) if previous is not None else cfg.flight_times
+    return [(aim.v_out, aim.flight_time)
+            for aim in aim_candidates(p_hit, v_hit, (cfg.target_x, cfg.target_y),
+                                      flight_times=times, spin=spin)]
 
 
 def _correct_before(self, context, state, old, now):
@@ -179,9 +155,9 @@ def toggles(diagram: ServeDiagram) -> dict:
     def close_aim(on: bool) -> None:
         planner = analytical().planner
         if on:
-            planner.__dict__.pop("stroke", None)
+            planner.__dict__.pop("aims", None)
         else:
-            planner.stroke = types.MethodType(_stroke_before, planner)
+            planner.aims = types.MethodType(_aims_before, planner)
 
     def seventh_pass(on: bool) -> None:
         for lever in (prediction_step, prediction_cutoff, close_aim):
