@@ -328,6 +328,11 @@ class AnalyticalPlayer(StagePlanPlayer):
     follow-through and the return to the awaiting posture) and waits for the next ball coming to
     it. Without it (``serve``) the player stays committed to its one stroke."""
 
+    # Predictions past the committed stroke's correction cut-off can change nothing, so none is
+    # made (issue #17's seventh pass); docs/examples/lever_toggle.py turns them back on to
+    # measure what they cost.
+    predict_past_cutoff = False
+
     def __init__(self, planner: StrokePlanner | None = None, rate: float = wp.PLANNING_RATE,
                  setpoint_lead: float = 0.0, corrections: bool = True, play_again: bool = False,
                  setpoint_period: float | None = None):
@@ -416,11 +421,12 @@ class AnalyticalPlayer(StagePlanPlayer):
         # Past the committed stroke's cut-off no prediction can correct it (the estimate is
         # still recorded as seen): the teacher's frames from there to the episode's end.
         before_cutoff = old.stroke.t_hit - now >= cfg.correct_lead
-        fresh = self._fresh_prediction(context, state, old, True, predict=before_cutoff)
+        fresh = self._fresh_prediction(context, state, old, True,
+                                       predict=before_cutoff or self.predict_past_cutoff)
         if fresh is None:
             return
         seen, (p_hit, v_hit, t_hit, spin, _) = fresh
-        if (t_hit - now < cfg.correct_lead
+        if (not before_cutoff or t_hit - now < cfg.correct_lead
                 or not self.planner.needs_correction(old.stroke, p_hit, t_hit, spin)):
             return
         stroke = self.planner.stroke(p_hit, v_hit, t_hit, spin, old.stroke)

@@ -74,29 +74,6 @@ def _aims_before(self, p_hit, v_hit, spin, previous):
                                       flight_times=times, spin=spin)]
 
 
-def _correct_before(self, context, state, old, now):
-    """``AnalyticalPlayer._correct`` before the seventh pass: a prediction from every frame."""
-    from tt_drake.systems.analytical_player import _PlayerState
-
-    if old.stroke is None:
-        return
-    fresh = self._fresh_prediction(context, state, old, True)
-    if fresh is None:
-        return
-    seen, (p_hit, v_hit, t_hit, spin, _) = fresh
-    cfg = self.planner.config
-    if (t_hit - now < cfg.correct_lead or old.stroke.t_hit - now < cfg.correct_lead
-            or not self.planner.needs_correction(old.stroke, p_hit, t_hit, spin)):
-        return
-    stroke = self.planner.stroke(p_hit, v_hit, t_hit, spin, old.stroke)
-    if stroke is None:
-        return
-    plan = self.planner.correct(now, old.plan, stroke)
-    if plan is not None:
-        state.get_mutable_abstract_state(self._state_index).set_value(
-            _PlayerState(plan, stroke, True, seen))
-
-
 def toggles(diagram: ServeDiagram) -> dict:
     schedule = diagram._schedule
     nothing = {m: importlib.import_module(m)._NOTHING for m in _DID_NOTHING_MODULES}
@@ -146,11 +123,7 @@ def toggles(diagram: ServeDiagram) -> dict:
         analytical().planner.model = planner_ball_model(PREDICTION_STEP if on else 2e-3)
 
     def prediction_cutoff(on: bool) -> None:
-        player = analytical()
-        if on:
-            player.__dict__.pop("_correct", None)  # the class's method
-        else:
-            player._correct = types.MethodType(_correct_before, player)
+        analytical().predict_past_cutoff = not on
 
     def close_aim(on: bool) -> None:
         planner = analytical().planner
