@@ -39,8 +39,8 @@ prediction it reads, at the same tick.
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from tt_drake.constants import BALL
 from tt_drake.learned_player import ConfigurationModel
+from tt_drake.racket_law import racket_for_return
 from tt_drake.stimulus import PAPER_STIMULUS, compose_stimulus
 
 SOURCES = ("crkr", "analytical")
@@ -105,10 +105,9 @@ class HittingConfiguration(LeafSystem):
             return None
         if not np.any(spin):
             return stroke.q_hit, stroke.qd_hit, stroke.qd_hit
-        # The racket law's tangential term for the spinning contact point, taken out.
-        n = stroke.racket_normal
-        slip = np.cross(spin, -BALL.radius * n)
-        velocity = stroke.racket_velocity - (slip - (slip @ n) * n)
+        # The racket law for the same outgoing velocity without the spinning contact point's
+        # tangential term (the normal does not depend on the spin).
+        velocity = racket_for_return(v_hit, stroke.v_out).velocity
         return (stroke.q_hit, stroke.qd_hit,
                 self.planner.arm.joint_velocities_free_spin(stroke.q_hit, velocity))
 
