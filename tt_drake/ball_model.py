@@ -315,11 +315,12 @@ class BallModel:
         return abs(x) <= p.table_half_width and abs(y) <= p.table_half_length
 
     # -- prediction -----------------------------------------------------------------------------
-    def _advance(self, state, stop, max_time: float):
+    def _advance(self, state, stop, max_time: float, until_bounce: bool = False):
         """Integrate from ``state`` until ``stop(t, pos, vel)`` changes sign from positive to
         non-positive (an event function), bouncing on the table on the way. Returns the state at
         the event (located by :meth:`_locate`) or None if the ball reaches the floor (centre below
-        ``radius``) or ``max_time`` passes first."""
+        ``radius``) or ``max_time`` passes first. With ``until_bounce`` the first table impact
+        before the event ends it instead: its :class:`Bounce` is returned."""
         p = self.params
         s = np.asarray(state, dtype=float).reshape(-1)
         if s.shape != (9,) and s.shape != (6,):
@@ -350,6 +351,8 @@ class BallModel:
                 # Check the stop event before the impact first.
                 if stop(t + th, hp, hv) <= 0.0:
                     return self._finish(t, pos, vel, w, h, stop, bounces)
+                if until_bounce:
+                    return Bounce(t + th, hp)
                 bounces.append(Bounce(t + th, hp))
                 hv, w = self.bounce(hv, w)
                 pos, vel, t = hp, hv, t + th
@@ -463,6 +466,11 @@ class BallModel:
             return side * (q[1] - plane_y)
 
         return self._advance(s, stop, max_time)
+
+    def first_bounce(self, state, max_time: float = 3.0) -> Bounce | None:
+        """The ball's first table impact from ``state`` (when, and where its centre is), or None
+        if it reaches the floor (misses the table) or ``max_time`` passes first."""
+        return self._advance(state, lambda _t, _q, _v: 1.0, max_time, until_bounce=True)
 
     def predict_time(self, state, duration: float) -> PlaneCrossing:
         """State after ``duration`` seconds (bounces on the table included). Raises ValueError if

@@ -103,19 +103,10 @@ def landing_after_racket(p_hit, v_in, racket: RacketState, spin=(0.0, 0.0, 0.0),
     table) or ``max_time`` passes first. The inverse of the teacher's aim: for the racket of
     :func:`racket_for_return` on an aim's ``v_out`` it returns the aim's target."""
     model = model or BallModel()
-    pos = tuple(float(c) for c in p_hit)
-    vel = tuple(float(c) for c in ball_after_racket(v_in, racket))
-    w = tuple(float(c) for c in spin)
-    t, h = 0.0, model.dt
-    while t < max_time:
-        new_p, new_v = model.flight_step(pos, vel, w, h)
-        impact = model.table_impact(pos, vel, w, h, new_p, new_v)
-        if impact is not None:
-            return np.array(impact[1][:2])
-        if new_p[2] < model.params.radius:
-            return None
-        pos, vel, t = new_p, new_v, t + h
-    return None
+    state = np.r_[np.asarray(p_hit, dtype=float), ball_after_racket(v_in, racket),
+                  np.asarray(spin, dtype=float)]
+    bounce = model.first_bounce(state, max_time)
+    return None if bounce is None else np.array(bounce.position[:2])
 
 
 @dataclass(frozen=True)

@@ -162,3 +162,18 @@ def test_locate_without_a_sign_change_bisects_as_before():
         return q[1] + 1.0  # positive over the whole step
 
     assert model._locate(pos, vel, w, 5e-3, g) == model._bisect(pos, vel, w, 5e-3, g)
+
+
+def test_first_bounce_is_the_closed_form_landing_of_a_ball_in_vacuum():
+    # No drag, no Magnus: the centre reaches table_z + R at t = (vz + sqrt(vz^2 + 2 g dz)) / g.
+    model = BallModel(BallModelParams(drag_k=0.0, magnus_cl=0.0))
+    p0, v0 = np.array([0.1, 0.8, 1.1]), np.array([0.3, -2.0, 1.5])
+    bounce = model.first_bounce(np.r_[p0, v0, 0.0, 0.0, 0.0])
+    g, dz = model.params.gravity, p0[2] - (model.params.table_z + model.params.radius)
+    t = (v0[2] + math.sqrt(v0[2] ** 2 + 2 * g * dz)) / g
+    assert bounce.t == pytest.approx(t, abs=1e-9)
+    np.testing.assert_allclose(bounce.position[:2], p0[:2] + v0[:2] * t, atol=1e-8)
+    # The same impact the predictions record on their way, and none off the table.
+    later = model.predict_time(np.r_[p0, v0], t + 0.05)
+    assert later.bounces[0] == bounce
+    assert model.first_bounce(np.r_[0.0, 0.8, 1.1, 3.0, 0.0, 0.0]) is None
