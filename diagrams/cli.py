@@ -169,7 +169,8 @@ def _add_learned_options(p: argparse.ArgumentParser, artefact_sets: bool = True)
                    type=_one_of("hitting configuration", CONFIGURATION_NAMES),
                    choices=CONFIGURATION_NAMES,
                    help="learned players: hitting configuration from the CrKR model or the "
-                        "analytical IK (default: crkr; with --artefacts, the set's)")
+                        "analytical IK" + (" (default: crkr; with --artefacts, the set's)"
+                                           if artefact_sets else ""))
     if not artefact_sets:
         return
     p.add_argument("--artefacts", default=None, type=_one_of("artefact set", ARTEFACT_SET_NAMES),

@@ -142,6 +142,16 @@ def test_every_help_lists_the_choices_and_the_defaults():
     assert {"default", "spin", "real-test", "rally-train", "fixed"} <= set(DISTRIBUTIONS)
 
 
+def test_every_help_names_only_options_its_command_has():
+    """A help text that sends the user to an option must be talking about one they can give
+    (the rally's --configuration help once pointed at a --artefacts it does not have)."""
+    _, commands = _subparsers()
+    for name, parser in commands.items():
+        own = {s for action in parser._actions for s in action.option_strings}
+        named = set(re.findall(r"(?<![\w-])--[a-z][a-z-]*[a-z]", parser.format_help()))
+        assert named <= own, (name, sorted(named - own))
+
+
 def test_version_is_the_installed_distributions(capsys):
     from importlib.metadata import version
 
