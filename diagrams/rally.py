@@ -63,17 +63,19 @@ class RallyResult:
 
 
 class _PortWorld:
-    """What a player function reads from ``World``: the ball's state port (the side's view)."""
+    """What a player function reads from ``World``: the state ports of the ball (the side's
+    view) and of the side's own arm."""
 
     class _Plant:
-        def __init__(self, port):
-            self._port = port
+        def __init__(self, ports: dict):
+            self._ports = ports
 
-        def get_state_output_port(self, _instance):  # noqa: D102 (MultibodyPlant's name)
-            return self._port
+        def get_state_output_port(self, instance):  # noqa: D102 (MultibodyPlant's name)
+            return self._ports[instance]
 
-    def __init__(self, ball_port):
-        self.plant, self.ball = self._Plant(ball_port), None
+    def __init__(self, ball_port, arm_port):
+        self.ball, self.robot = "ball", "robot"
+        self.plant = self._Plant({self.ball: ball_port, self.robot: arm_port})
 
 
 class _PortController:
@@ -90,9 +92,10 @@ class _PortController:
 
 
 def build_player_side(player: str, scenario: Scenario, side: int):
-    """The sub-diagram of one side's player: input ``ball_state`` (13, the side's frame), outputs
-    ``desired_state`` (14) and ``desired_acceleration`` (7). Returns (diagram, the systems that
-    draw random numbers, the player system)."""
+    """The sub-diagram of one side's player: inputs ``ball_state`` (13, the side's frame) and
+    ``arm_state`` (14: its arm's measured q, q_dot, which the learned player's hold reads),
+    outputs ``desired_state`` (14) and ``desired_acceleration`` (7). Returns (diagram, the
+    systems that draw random numbers, the player system)."""
     from pydrake.systems.framework import DiagramBuilder
     from pydrake.systems.primitives import PassThrough
 
@@ -101,9 +104,11 @@ def build_player_side(player: str, scenario: Scenario, side: int):
     sub = DiagramBuilder()
     ball = sub.AddNamedSystem("ball_state", PassThrough(13))
     sub.ExportInput(ball.get_input_port(), "ball_state")
+    arm = sub.AddNamedSystem("arm_state", PassThrough(14))
+    sub.ExportInput(arm.get_input_port(), "arm_state")
     desired = sub.AddNamedSystem("desired_state", PassThrough(14))
     accel = sub.AddNamedSystem("desired_acceleration", PassThrough(7))
-    seeded = PLAYERS[player](sub, _PortWorld(ball.get_output_port()),
+    seeded = PLAYERS[player](sub, _PortWorld(ball.get_output_port(), arm.get_output_port()),
                              _PortController(desired.get_input_port(), accel.get_input_port()),
                              scenario)
     sub.ExportOutput(desired.get_output_port(), "desired_state")
@@ -208,6 +213,7 @@ class RallyDiagram:
             builder.AddSystem(side)
             builder.Connect(ball if k == 0 else mirror.get_output_port(),
                             side.GetInputPort("ball_state"))
+            builder.Connect(plant.get_state_output_port(robot), side.GetInputPort("arm_state"))
             builder.Connect(side.GetOutputPort("desired_state"),
                             controller.get_input_port_desired_state())
             builder.Connect(side.GetOutputPort("desired_acceleration"),

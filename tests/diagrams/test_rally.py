@@ -71,6 +71,29 @@ def test_a_rally_that_no_one_plays_ends_with_a_miss_by_a():
     assert (result.fault.player, result.fault.kind) == (0, "missed")
 
 
+def test_each_learned_player_reads_its_own_arms_measured_state():
+    """The learned player's hold compares the measured arm with its plan: in a rally each side's
+    ``arm_state`` is its own robot's state (not the other's, not the ball's)."""
+    from tt_drake.diagrams.rally import RallyDiagram, rally_scenario
+    from tt_drake.diagrams.scenario import load_scenario
+    from tt_drake.models import shipped_artefact
+
+    scenario = rally_scenario(load_scenario())
+    scenario.learned.library = str(shipped_artefact("library"))
+    scenario.learned.configuration = "analytical"
+    rally = RallyDiagram(scenario, ("momp", "momp"))
+    plant = rally.world.plant
+    plant_context = plant.GetMyMutableContextFromRoot(rally.context)
+    rng = np.random.default_rng(3)
+    states = [rng.uniform(-1.0, 1.0, 14) for _ in range(2)]
+    for robot, state in zip((rally.world.robot, rally.world.robot_b), states, strict=True):
+        plant.SetPositionsAndVelocities(plant_context, robot, state)
+    for side, state in zip(rally.sides, states, strict=True):
+        player = side.GetSubsystemByName("momp_player")
+        seen = player.GetInputPort("arm_state").Eval(player.GetMyContextFromRoot(rally.context))
+        np.testing.assert_array_equal(seen, state)
+
+
 @pytest.fixture(scope="module")
 def analytical_pair():
     from tt_drake.diagrams.rally import RallyDiagram, rally_scenario
