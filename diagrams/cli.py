@@ -244,6 +244,10 @@ def build_parser() -> argparse.ArgumentParser:
     _add_learned_options(rally, artefact_sets=False)
     # The shipped CrKR model learned the serve task's target; the rally aims elsewhere.
     rally.set_defaults(configuration="analytical")
+    rally.add_argument("--spinless-configuration", action="store_true",
+                       help="learned players: the analytical hitting configuration for a "
+                            "spinless ball (the serve's), instead of for the predicted spin at "
+                            "the hit (docs/rally.md)")
 
     bench = command("bench", help="time serve episodes against a C++ reference diagram")
     bench.add_argument("--serves", type=_serve_count, default=10, help="number of serves")
@@ -443,6 +447,9 @@ def _rally(args) -> None:
         _check_player(player)
     args.player = None  # the shipped artefacts are chosen by _use_rally_artefacts
     scenario = _scenario(args)
+    # The other robot's returns spin: the learned players' racket follows the spinning contact
+    # point unless told not to (docs/rally.md, "Spin-aware learned players").
+    scenario.learned.spin_aware = not args.spinless_configuration
     _use_rally_artefacts(players, scenario)
     for player in players:
         _check_learned(player, scenario)
@@ -470,9 +477,11 @@ def _use_rally_artefacts(players: tuple, scenario) -> None:
         learned.library = str(shipped_artefact("library"))
     if learned.configuration == "crkr":
         learned.crkr = str(shipped_artefact("crkr"))
+    spin = (", for the predicted spin" if learned.configuration == "analytical"
+            and learned.spin_aware else "")
     print(f"tt-drake: the learned players use the shipped artefacts in "
           f"{shipped_artefact('library').parent} (hitting configuration: "
-          f"{learned.configuration}; hitting point: the physical model)", file=sys.stderr)
+          f"{learned.configuration}{spin}; hitting point: the physical model)", file=sys.stderr)
 
 
 def _serves(args) -> None:

@@ -239,8 +239,9 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
         config = PlannerConfig(target_x=scenario.referee.target_x,
                                target_y=scenario.referee.target_y)
         # With the moving goal (the hard protocol) the teacher's aim gets the predicted spin.
-        configuration = HittingConfiguration("analytical", planner=StrokePlanner(config=config),
-                                             use_spin=scenario.learned.moving_goal)
+        configuration = HittingConfiguration(
+            "analytical", planner=StrokePlanner(config=config),
+            use_spin=scenario.learned.moving_goal or scenario.learned.spin_aware)
     configuration = builder.AddNamedSystem("hitting_configuration", configuration)
     crkr = learned.get("crkr")
     player = builder.AddNamedSystem("momp_player", MoMPTrajectorySource(

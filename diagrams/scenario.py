@@ -77,6 +77,10 @@ class LearnedPlayerConfig:
     # until ``MoMPConfig.goal_cutoff`` before the hit instead of committing at its start. Off in
     # the paper profile; the hard artefacts turn it on (``tt-drake serve --artefacts hard``).
     moving_goal: bool = False
+    # The ``analytical`` configuration's racket for the predicted spin at the hit (the teacher's
+    # aim and racket law with ``spin_hit``: systems/hitting_configuration.py). Always on with the
+    # moving goal; this turns it on without (a rally's learned players, docs/rally.md).
+    spin_aware: bool = False
 
 
 @dataclass

@@ -182,6 +182,11 @@ def test_rally_cli_writes_the_summary_and_one_record_per_rally(tmp_path, capsys)
     assert data["summary"]["players"]["B"]["success_rate"] == 0.0
     assert data["players"] == ["analytical", "idle"] and data["scenario"]["rally"]
     assert "1 rally from a serve ball (seed 3)" in capsys.readouterr().out
+    # The learned players' configuration is for the predicted spin unless told otherwise.
+    assert data["scenario"]["learned"]["spin_aware"] is True
+    assert main(["rally", "--quiet", "--players", "idle", "idle", "--rallies", "1",
+                 "--spinless-configuration", "--json", str(out)]) == 0
+    assert json.loads(out.read_text())["scenario"]["learned"]["spin_aware"] is False
 
 
 @pytest.mark.slow
