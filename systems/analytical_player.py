@@ -27,9 +27,10 @@ stage from the current desired state, until 80 ms before the hit. A re-plan is
 dropped, keeping the previous one, when the arm solution jumps to another configuration
 (> ``max_branch_change`` on a joint) while the hitting point moved less than
 ``research_distance``, or when the new plan leaves the joint position, velocity or acceleration
-limits or asks for more than 90 % of an actuator's effort limit (inverse dynamics along the plan:
-an acceleration limit alone let a plan ask the shoulder for twice its 75 N m). The player only sees
-what the camera sees: its inputs are the estimator's outputs, never the true ball state.
+limits or asks for more than 90 % of an actuator's effort limit (inverse dynamics along the plan,
+gravity included: ``HittingIK.torques``; an acceleration limit alone let a plan ask the shoulder
+for twice its 75 N m). The player only sees what the camera sees: its inputs are the
+estimator's outputs, never the true ball state.
 
 Ports of :class:`AnalyticalPlayer`: inputs ``estimated_state`` (6: p, v), ``estimated_spin``
 (3: omega, rad/s; taken as zero when not connected) and ``estimator_status`` (2: valid, time of
@@ -270,8 +271,8 @@ class StrokePlanner:
     def feasible(self, plan: StagePlan, now: float = -np.inf) -> bool:
         """Within the joint position, velocity and acceleration limits everywhere (sampled at
         200 Hz), and within ``torque_fraction`` of the effort limits from ``now`` on (inverse
-        dynamics on the control plant at 50 Hz): the controller can then follow it, with the
-        rest of the torque left for tracking errors."""
+        dynamics on the control plant at 50 Hz, M q_ddot + C q_dot - tau_g): the controller can
+        then follow it, with the rest of the torque left for tracking errors."""
         ext = plan_extremes(plan, rate=200.0)
         if not (np.all(ext["qdd_max"] <= self.acceleration_limit)
                 and np.all(ext["qd_max"] <= self.limits.velocity)

@@ -283,6 +283,8 @@ def within_effort(plan: StagePlan, torques, budget, now: float = -np.inf,
                   rate: float = 50.0) -> bool:
     """Inverse dynamics ``torques(q, q_dot, q_ddot)`` along ``plan`` from ``now`` on, sampled at
     ``rate`` Hz, within ``budget`` (per joint) everywhere: the controller can then follow it.
+    ``torques`` must be the plan's whole feed-forward torque, M q_ddot + C q_dot - tau_g
+    (:meth:`tt_drake.systems.hitting_ik.HittingIK.torques`, gravity included).
 
     Each segment's samples are evaluated at once (:func:`evaluate_segment_many`); the inverse
     dynamics stays one call per sample and the check stops at the first sample over budget."""

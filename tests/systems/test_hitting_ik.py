@@ -236,3 +236,77 @@ def test_free_spin_velocities_give_the_blade_velocity_with_smaller_joint_speeds(
         np.testing.assert_allclose(ik.racket_velocity(q, free)[3:], v, atol=1e-9)
         # minimum norm over all joint velocities giving v, so never above the held-racket one
         assert np.linalg.norm(free) <= np.linalg.norm(held) + 1e-12
+
+
+def _independent_holding_torques(q):
+    """The torque that holds the arm still at q, from the facts.md link masses and centres of
+    mass on the independent DH chain of test_wam (not through the plant): joint k carries
+    sum over links j >= k of ((p_j - o_k) x m_j g) . z_k, with the opposite sign."""
+    from tests.systems.test_wam import (
+        FACTS_LINK_COM,
+        FACTS_LINK_MASS,
+        G,
+        independent_frames,
+    )
+
+    frames = independent_frames(q)
+    points = [(m, (frames[i + 1] @ np.append(c, 1.0))[:3]) for i, (m, c) in
+              enumerate(zip(FACTS_LINK_MASS, FACTS_LINK_COM, strict=True))]
+    points.append((wp.RACKET.mass, (frames[7] @ np.append(wp.RACKET.com(), 1.0))[:3]))
+    holding = np.zeros(7)
+    for k in range(7):
+        axis, origin = frames[k][:3, 2], frames[k][:3, 3]
+        for m, p in points[k:]:
+            holding[k] -= np.cross(axis, p - origin) @ np.array([0.0, 0.0, -m * G])
+    return holding
+
+
+def test_torques_at_rest_hold_the_arm_against_gravity(ik):
+    """At rest (q_dot = q_ddot = 0) tau = -tau_g(q): the inverse dynamics include gravity (the
+    InverseDynamicsController adds it, so the effort check must count it too)."""
+    rng = np.random.default_rng(8)
+    postures = [np.zeros(7), np.asarray(wp.AWAITING), np.asarray(HITTING_COMFORT),
+                *rng.uniform(LOWER, UPPER, (5, 7))]
+    for q in postures:
+        expected = _independent_holding_torques(q)
+        np.testing.assert_allclose(ik.torques(q, np.zeros(7), np.zeros(7)), expected, atol=1e-9)
+    # Not a vanishing quantity at the hitting posture: the shoulder holds ~24 N m, and the wrist
+    # joint 5 a sixth of its 3 N m limit.
+    holding = _independent_holding_torques(np.asarray(HITTING_COMFORT))
+    assert abs(holding[1]) > 20.0 and abs(holding[4]) > 0.15 * wp.EFFORT_LIMIT[4]
+
+
+def test_torques_are_the_manipulator_equation(ik, other_plant):
+    """tau = M(q) q_ddot + C(q, q_dot) q_dot - tau_g(q), with M, C q_dot and tau_g from another
+    plant's CalcMassMatrix, CalcBiasTerm and CalcGravityGeneralizedForces; applied to the
+    plant, tau gives back q_ddot (forward dynamics)."""
+    plant, context, _ = other_plant
+    rng = np.random.default_rng(9)
+    for _ in range(5):
+        q = rng.uniform(LOWER, UPPER)
+        qdot = rng.uniform(-5.0, 5.0, 7)
+        qddot = rng.uniform(-100.0, 100.0, 7)
+        plant.SetPositions(context, q)
+        plant.SetVelocities(context, qdot)
+        mass = plant.CalcMassMatrix(context)
+        bias = plant.CalcBiasTerm(context)
+        gravity = plant.CalcGravityGeneralizedForces(context)
+        tau = ik.torques(q, qdot, qddot)
+        np.testing.assert_allclose(tau, mass @ qddot + bias - gravity, atol=1e-8)
+        np.testing.assert_allclose(np.linalg.solve(mass, tau - bias + gravity), qddot,
+                                   atol=1e-8)
+
+
+def test_effort_check_counts_the_holding_torque(ik):
+    """A plan that keeps the arm at rest at the hitting posture needs exactly the holding torque:
+    the effort check passes it with a budget at that torque and refuses it just below."""
+    from tt_drake.stages import HITTING, Quintic, StagePlan, within_effort
+
+    q = np.asarray(HITTING_COMFORT)
+    zero = np.zeros(7)
+    plan = StagePlan([(HITTING, Quintic.fit(0.0, 0.2, q, zero, zero, q, zero, zero))])
+    holding = np.abs(_independent_holding_torques(q))
+    assert within_effort(plan, ik.torques, holding + 1e-9)
+    shoulder_short = holding + 1e-9
+    shoulder_short[1] = 0.99 * holding[1]
+    assert not within_effort(plan, ik.torques, shoulder_short)
