@@ -60,6 +60,7 @@ from tt_drake.learned_player import (
 )
 from tt_drake.momp import MotorPrimitiveLibrary, scott_bandwidths
 from tt_drake.outputs import check_writable, portable_path
+from tt_drake.responsibility import ResponsibilityParams
 from tt_drake.stages import AWAITING, FOLLOW_THROUGH, HITTING, PREPARATION, STAGES
 from tt_drake.stimulus import (
     PAPER_STIMULUS,
@@ -189,14 +190,20 @@ HARD_PROFILE = {"demonstrations": "recorded", "alpha_y": 15.0, "stimulus": "spin
 
 def library_options(config) -> dict:
     """train_library's keyword arguments from a reproduce profile's config: its attributes
-    ``demonstrations``, ``alpha_y``, ``stimulus``, ``hitting_borrow`` and ``stage_borrow`` if
-    it has them (else the paper profile's: train_library's defaults)."""
+    ``demonstrations``, ``alpha_y``, ``stimulus``, ``hitting_borrow`` and ``stage_borrow``, and
+    the responsibility learning's ``kappa``, ``zeta`` and ``threshold`` (Eq. 10, Algorithm 3;
+    the others keep :class:`ResponsibilityParams`' defaults) if it has them (else the paper
+    profile's: train_library's defaults)."""
     out = {}
     for name in ("demonstrations", "hitting_borrow", "stage_borrow"):
         if getattr(config, name, None) is not None:
             out[name] = getattr(config, name)
     if getattr(config, "alpha_y", None) is not None:
         out["dmp"] = HittingDMP(alpha_y=float(config.alpha_y))
+    learning = {name: float(getattr(config, name)) for name in ("kappa", "zeta", "threshold")
+                if getattr(config, name, None) is not None}
+    if learning:
+        out["responsibility"] = ResponsibilityParams(**learning)
     out["stimulus"] = stimulus_of(config)
     return out
 
@@ -213,7 +220,8 @@ def stimulus_of(config) -> tuple[str, ...]:
 def train_library(data_dir, out, primitives: int = 300, dmp: HittingDMP | None = None,
                   demonstrations: str = "planned", stimulus=PAPER_STIMULUS,
                   hitting_borrow: float = WEAK_AMPLITUDE_RATIO,
-                  stage_borrow: float = WEAK_AMPLITUDE_RATIO) -> dict:
+                  stage_borrow: float = WEAK_AMPLITUDE_RATIO,
+                  responsibility: ResponsibilityParams | None = None) -> dict:
     """Write the primitive library (hitting primitives + stage DMPs); returns a summary.
 
     ``demonstrations``: the teacher's executed plan (``"planned"``) or the arm's recorded joint
@@ -221,7 +229,10 @@ def train_library(data_dir, out, primitives: int = 300, dmp: HittingDMP | None =
     (:mod:`tt_drake.stimulus`); ``dmp``: the DMP's hyperparameters (gains, basis), recorded in
     the artefact; ``hitting_borrow`` and ``stage_borrow``: the amplitude ratio below which a
     joint of a hitting primitive / of a stage DMP takes the dominant joint's shape
-    (:func:`tt_drake.imitation.borrow_weak_shapes`; 0 keeps every joint's own shape)."""
+    (:func:`tt_drake.imitation.borrow_weak_shapes`; 0 keeps every joint's own shape);
+    ``responsibility``: the library's responsibility-learning parameters (kappa, zeta and the
+    pruning threshold of Eq. 10 and Algorithm 3, recorded in the artefact; default
+    :class:`ResponsibilityParams`' defaults)."""
     check_writable(out)
     dmp = dmp or HittingDMP()
     layout = stimulus_layout(stimulus)
@@ -234,8 +245,9 @@ def train_library(data_dir, out, primitives: int = 300, dmp: HittingDMP | None =
         raise TrainError(f"{data_dir}: no usable hitting demonstration")
     x = np.array(strokes["stimuli"])
     h = np.where(_spread(x) > 0, scott_bandwidths(x), 1.0)
-    library = MotorPrimitiveLibrary.from_demonstrations(dmp, strokes["hitting"], x, h,
-                                                        stimulus_layout=layout)
+    library = MotorPrimitiveLibrary.from_demonstrations(
+        dmp, strokes["hitting"], x, h, stimulus_layout=layout,
+        responsibility=responsibility or ResponsibilityParams())
     borrowed = 0
     for p in range(library.n_primitives):
         before = library.weights[p].copy()

@@ -200,6 +200,27 @@ def test_reproduce_profiles_pass_their_library_settings():
     assert stimulus_of(SimpleNamespace(stimulus=["p_hit", "v_hit"])) == PAPER_STIMULUS
 
 
+def test_a_profiles_responsibility_parameters_reach_the_library(artefacts, tmp_path):
+    """kappa, zeta and the threshold of a profile's config become the library's responsibility
+    parameters (the ones the responsibility and PoWER stages read); the others keep their
+    defaults, and a config without them trains the default ones."""
+    from types import SimpleNamespace
+
+    from tt_drake.diagrams.train import library_options, train_library
+    from tt_drake.responsibility import ResponsibilityParams
+
+    data, default_path, _ = artefacts
+    options = library_options(SimpleNamespace(kappa=4, zeta=0.5))
+    assert options["responsibility"] == ResponsibilityParams(kappa=4.0, zeta=0.5, threshold=0.1)
+    out = tmp_path / "lib.npz"
+    train_library(data, out, **options)
+    library, _, _ = load_player_library(out, "default", PLANES.hitting_y)
+    assert library.responsibility == ResponsibilityParams(kappa=4.0, zeta=0.5, threshold=0.1)
+    assert library.responsibility.prune_below_reward == pytest.approx(1 - 0.5 * np.log(10) / 4)
+    default, _, _ = load_player_library(default_path, "default", PLANES.hitting_y)
+    assert default.responsibility == ResponsibilityParams()
+
+
 def test_spin_stimulus_is_exercised_in_the_serve_diagram(artefacts, tmp_path):
     """A library and CrKR trained with the spin in their stimulus: in the serve diagram the
     MoMP player's stroke stimulus is (p_hit, v_hit, spin_hit) as the predictor published them."""
