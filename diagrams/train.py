@@ -3,6 +3,7 @@
     tt-drake train library --data DIR --out FILE [--primitives 300] [--stimulus paper|spin]
                            [--demonstrations planned|recorded] [--alpha-y 35]
                            [--hitting-borrow 0.5] [--stage-borrow 0.5]
+                           [--kappa 1] [--zeta 0.25] [--threshold 0.1]
     tt-drake train crkr    --data DIR --out FILE [--samples 2500] [--stimulus paper|spin]
 
 DIR is a dataset written by ``tt-drake collect`` (:func:`tt_drake.diagrams.collect.load_dataset`).
@@ -25,7 +26,9 @@ The defaults are the paper profile's. The options (issue #14, docs/motor_primiti
 10): the demonstrations are the executed plan or the arm's recorded joint state; the DMP gain
 alpha_y; the borrowing ratio of the hitting primitives and of the stage DMPs (0: none); the
 stimulus layout (:mod:`tt_drake.stimulus`: ``spin`` appends the teacher's predicted spin at
-impact, ``spin_hit``). All are recorded in the artefact.
+impact, ``spin_hit``); the responsibility learning's kappa, zeta and pruning threshold (Eq. 10,
+Algorithm 3; :class:`tt_drake.responsibility.ResponsibilityParams`). All are recorded in the
+artefact.
 
 crkr (paper section II-C.2): the map from the stimulus s = (p_hit, v_hit) to the hitting
 configuration (theta_hit, theta_dot_hit), 14 outputs sharing one kernel (one model per output, as
