@@ -11,6 +11,7 @@
     tt-drake train library|crkr --data DIR --out FILE [--primitives 300] [--samples 2500]
                                 [--stimulus paper|spin] [--demonstrations planned|recorded]
                                 [--alpha-y 35] [--hitting-borrow 0.5] [--stage-borrow 0.5]
+                                [--kappa 1] [--zeta 0.25] [--threshold 0.1]
     tt-drake serve --player momp [--library FILE --crkr FILE --predictor FILE]
                    [--configuration crkr|analytical] ...   (no FILE: the shipped artefacts)
     tt-drake serve --player momp --artefacts hard ...  (the hard protocol's shipped artefacts)
@@ -300,6 +301,13 @@ def build_parser() -> argparse.ArgumentParser:
         learn.add_argument(f"--{name}-borrow", type=_bounded_float(0.0, 1.0), default=0.5,
                            help=f"library: {name} DMP joints whose amplitude is below this "
                                 f"fraction of the largest take its shape (0: none; default 0.5)")
+    learn.add_argument("--kappa", type=_bounded_float(0.0, None), default=1.0,
+                       help="library: responsibility learning's rate kappa (Eq. 10)")
+    learn.add_argument("--zeta", type=_bounded_float(0.0, 100.0), default=0.25,
+                       help="library: responsibility learning's zeta (Eq. 10)")
+    learn.add_argument("--threshold", type=_bounded_float(0.0, 0.99), default=0.1,
+                       help="library: the responsibility below which a primitive is pruned "
+                            "(Algorithm 3)")
 
     train = command("train-predictor", help="train the GPR hitting-point predictor")
     train.add_argument("--serves", type=_serve_count, default=1000, help="training serves")
@@ -563,13 +571,15 @@ def _eval_predictor(args) -> None:
 def _train(args) -> None:
     from tt_drake.diagrams.train import format_train, train_crkr, train_library
     from tt_drake.dmp import HittingDMP
+    from tt_drake.responsibility import ResponsibilityParams
     from tt_drake.stimulus import STIMULI
 
     stimulus = STIMULI[args.stimulus]
     if args.artefact == "library":
         summary = train_library(args.data, args.out, args.primitives,
                                 HittingDMP(alpha_y=args.alpha_y), args.demonstrations, stimulus,
-                                args.hitting_borrow, args.stage_borrow)
+                                args.hitting_borrow, args.stage_borrow,
+                                ResponsibilityParams(args.kappa, args.zeta, args.threshold))
     else:
         summary = train_crkr(args.data, args.out, args.samples, stimulus)
     print(format_train(summary))

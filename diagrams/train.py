@@ -3,6 +3,7 @@
     tt-drake train library --data DIR --out FILE [--primitives 300] [--stimulus paper|spin]
                            [--demonstrations planned|recorded] [--alpha-y 35]
                            [--hitting-borrow 0.5] [--stage-borrow 0.5]
+                           [--kappa 1] [--zeta 0.25] [--threshold 0.1]
     tt-drake train crkr    --data DIR --out FILE [--samples 2500] [--stimulus paper|spin]
 
 DIR is a dataset written by ``tt-drake collect`` (:func:`tt_drake.diagrams.collect.load_dataset`).
@@ -25,7 +26,9 @@ The defaults are the paper profile's. The options (issue #14, docs/motor_primiti
 10): the demonstrations are the executed plan or the arm's recorded joint state; the DMP gain
 alpha_y; the borrowing ratio of the hitting primitives and of the stage DMPs (0: none); the
 stimulus layout (:mod:`tt_drake.stimulus`: ``spin`` appends the teacher's predicted spin at
-impact, ``spin_hit``). All are recorded in the artefact.
+impact, ``spin_hit``); the responsibility learning's kappa, zeta and pruning threshold (Eq. 10,
+Algorithm 3; :class:`tt_drake.responsibility.ResponsibilityParams`). All are recorded in the
+artefact.
 
 crkr (paper section II-C.2): the map from the stimulus s = (p_hit, v_hit) to the hitting
 configuration (theta_hit, theta_dot_hit), 14 outputs sharing one kernel (one model per output, as
@@ -60,6 +63,7 @@ from tt_drake.learned_player import (
 )
 from tt_drake.momp import MotorPrimitiveLibrary, scott_bandwidths
 from tt_drake.outputs import check_writable, portable_path
+from tt_drake.responsibility import ResponsibilityParams
 from tt_drake.stages import AWAITING, FOLLOW_THROUGH, HITTING, PREPARATION, STAGES
 from tt_drake.stimulus import (
     PAPER_STIMULUS,
@@ -189,14 +193,20 @@ HARD_PROFILE = {"demonstrations": "recorded", "alpha_y": 15.0, "stimulus": "spin
 
 def library_options(config) -> dict:
     """train_library's keyword arguments from a reproduce profile's config: its attributes
-    ``demonstrations``, ``alpha_y``, ``stimulus``, ``hitting_borrow`` and ``stage_borrow`` if
-    it has them (else the paper profile's: train_library's defaults)."""
+    ``demonstrations``, ``alpha_y``, ``stimulus``, ``hitting_borrow`` and ``stage_borrow``, and
+    the responsibility learning's ``kappa``, ``zeta`` and ``threshold`` (Eq. 10, Algorithm 3;
+    the others keep :class:`ResponsibilityParams`' defaults) if it has them (else the paper
+    profile's: train_library's defaults)."""
     out = {}
     for name in ("demonstrations", "hitting_borrow", "stage_borrow"):
         if getattr(config, name, None) is not None:
             out[name] = getattr(config, name)
     if getattr(config, "alpha_y", None) is not None:
         out["dmp"] = HittingDMP(alpha_y=float(config.alpha_y))
+    learning = {name: float(getattr(config, name)) for name in ("kappa", "zeta", "threshold")
+                if getattr(config, name, None) is not None}
+    if learning:
+        out["responsibility"] = ResponsibilityParams(**learning)
     out["stimulus"] = stimulus_of(config)
     return out
 
@@ -213,7 +223,8 @@ def stimulus_of(config) -> tuple[str, ...]:
 def train_library(data_dir, out, primitives: int = 300, dmp: HittingDMP | None = None,
                   demonstrations: str = "planned", stimulus=PAPER_STIMULUS,
                   hitting_borrow: float = WEAK_AMPLITUDE_RATIO,
-                  stage_borrow: float = WEAK_AMPLITUDE_RATIO) -> dict:
+                  stage_borrow: float = WEAK_AMPLITUDE_RATIO,
+                  responsibility: ResponsibilityParams | None = None) -> dict:
     """Write the primitive library (hitting primitives + stage DMPs); returns a summary.
 
     ``demonstrations``: the teacher's executed plan (``"planned"``) or the arm's recorded joint
@@ -221,7 +232,10 @@ def train_library(data_dir, out, primitives: int = 300, dmp: HittingDMP | None =
     (:mod:`tt_drake.stimulus`); ``dmp``: the DMP's hyperparameters (gains, basis), recorded in
     the artefact; ``hitting_borrow`` and ``stage_borrow``: the amplitude ratio below which a
     joint of a hitting primitive / of a stage DMP takes the dominant joint's shape
-    (:func:`tt_drake.imitation.borrow_weak_shapes`; 0 keeps every joint's own shape)."""
+    (:func:`tt_drake.imitation.borrow_weak_shapes`; 0 keeps every joint's own shape);
+    ``responsibility``: the library's responsibility-learning parameters (kappa, zeta and the
+    pruning threshold of Eq. 10 and Algorithm 3, recorded in the artefact; default
+    :class:`ResponsibilityParams`' defaults)."""
     check_writable(out)
     dmp = dmp or HittingDMP()
     layout = stimulus_layout(stimulus)
@@ -234,8 +248,9 @@ def train_library(data_dir, out, primitives: int = 300, dmp: HittingDMP | None =
         raise TrainError(f"{data_dir}: no usable hitting demonstration")
     x = np.array(strokes["stimuli"])
     h = np.where(_spread(x) > 0, scott_bandwidths(x), 1.0)
-    library = MotorPrimitiveLibrary.from_demonstrations(dmp, strokes["hitting"], x, h,
-                                                        stimulus_layout=layout)
+    library = MotorPrimitiveLibrary.from_demonstrations(
+        dmp, strokes["hitting"], x, h, stimulus_layout=layout,
+        responsibility=responsibility or ResponsibilityParams())
     borrowed = 0
     for p in range(library.n_primitives):
         before = library.weights[p].copy()

@@ -15,6 +15,7 @@ from tt_drake.learned_player import (
     load_configuration_model,
     load_player_library,
 )
+from tt_drake.responsibility import ResponsibilityParams
 from tt_drake.stages import AWAITING, FOLLOW_THROUGH, PREPARATION
 
 
@@ -140,9 +141,10 @@ def test_recorded_spin_library_and_crkr_from_the_cli(artefacts, tmp_path, capsys
     out, crkr = tmp_path / "lib.npz", tmp_path / "crkr.npz"
     assert main(["train", "library", "--data", str(data), "--out", str(out), "--demonstrations",
                  "recorded", "--stimulus", "spin", "--alpha-y", "15", "--hitting-borrow", "0",
-                 "--stage-borrow", "0.5"]) == 0
+                 "--stage-borrow", "0.5", "--kappa", "4", "--zeta", "0.5"]) == 0
     library, _, meta = load_player_library(out, "default", PLANES.hitting_y)
     assert library.stimulus_layout == SPIN_STIMULUS and library.dmp.alpha_y == 15.0
+    assert library.responsibility == ResponsibilityParams(kappa=4.0, zeta=0.5, threshold=0.1)
     assert meta["demonstrations"] == "recorded" and meta["borrowed_dofs"] == 0
     ok = np.flatnonzero(dataset["returned"] > 0.5)
     np.testing.assert_array_equal(library.stimuli[:, 6:], dataset["spin_hit"][ok])
@@ -151,7 +153,8 @@ def test_recorded_spin_library_and_crkr_from_the_cli(artefacts, tmp_path, capsys
     model, meta = load_configuration_model(crkr, "default", PLANES.hitting_y)
     assert model.stimulus == SPIN_STIMULUS and meta["inputs"] == "p_hit, v_hit, spin_hit (9)"
     capsys.readouterr()
-    for bad in (["--alpha-y", "0"], ["--hitting-borrow", "1.5"], ["--demonstrations", "x"]):
+    for bad in (["--alpha-y", "0"], ["--hitting-borrow", "1.5"], ["--demonstrations", "x"],
+                ["--kappa", "0"], ["--threshold", "1"]):
         with pytest.raises(SystemExit) as exit_:
             main(["train", "library", "--data", str(data), "--out", str(tmp_path / "x.npz"),
                   *bad])
@@ -198,6 +201,26 @@ def test_reproduce_profiles_pass_their_library_settings():
     assert hard["stimulus"] == SPIN_STIMULUS and hard["dmp"].alpha_y == 15.0
     assert hard["demonstrations"] == "recorded" and hard["hitting_borrow"] == 0.0
     assert stimulus_of(SimpleNamespace(stimulus=["p_hit", "v_hit"])) == PAPER_STIMULUS
+
+
+def test_a_profiles_responsibility_parameters_reach_the_library(artefacts, tmp_path):
+    """kappa, zeta and the threshold of a profile's config become the library's responsibility
+    parameters (the ones the responsibility and PoWER stages read); the others keep their
+    defaults, and a config without them trains the default ones."""
+    from types import SimpleNamespace
+
+    from tt_drake.diagrams.train import library_options, train_library
+
+    data, default_path, _ = artefacts
+    options = library_options(SimpleNamespace(kappa=4, zeta=0.5))
+    assert options["responsibility"] == ResponsibilityParams(kappa=4.0, zeta=0.5, threshold=0.1)
+    out = tmp_path / "lib.npz"
+    train_library(data, out, **options)
+    library, _, _ = load_player_library(out, "default", PLANES.hitting_y)
+    assert library.responsibility == ResponsibilityParams(kappa=4.0, zeta=0.5, threshold=0.1)
+    assert library.responsibility.prune_below_reward == pytest.approx(1 - 0.5 * np.log(10) / 4)
+    default, _, _ = load_player_library(default_path, "default", PLANES.hitting_y)
+    assert default.responsibility == ResponsibilityParams()
 
 
 def test_spin_stimulus_is_exercised_in_the_serve_diagram(artefacts, tmp_path):
