@@ -116,12 +116,16 @@ def scenario_path(name_or_path: str) -> Path:
 
 def load_scenario(name_or_path: str = "default") -> Scenario:
     """Load a scenario by name (``models/<name>.yaml``) or path; raise ScenarioError on any
-    problem, with one line that names it."""
+    problem, with one line that names it. Any file but ``models/default.yaml`` itself is read on
+    top of the default scenario: the fields it names change, every other one is the default
+    scenario's (not the dataclasses' defaults, which e.g. leave ``world.flight_accuracy`` at 0)."""
     path = scenario_path(name_or_path)
     if not path.is_file():
         raise ScenarioError(f"scenario file not found: {path}")
+    default = scenario_path("default")
+    base = Scenario() if path.resolve() == default.resolve() else load_scenario("default")
     try:
-        scenario = yaml_load_typed(schema=Scenario, filename=str(path), defaults=Scenario())
+        scenario = yaml_load_typed(schema=Scenario, filename=str(path), defaults=base)
     except Exception as err:  # yaml and schema errors come as several exception types
         message = " ".join(str(err).split())
         raise ScenarioError(f"invalid scenario {path}: {message}") from None

@@ -44,6 +44,18 @@ def test_example_scenarios_load_with_their_faults():
     assert all(b > 0 for b in controller.joint_viscous)
 
 
+def test_a_scenario_file_changes_only_what_it_names_of_the_default_scenario(tmp_path):
+    """docs/faults/*.yaml say "the default scenario with ...": every field the file does not
+    name is models/default.yaml's (its flight accuracy 1e-3 too, not the dataclass's 0)."""
+    from pydrake.common.yaml import yaml_dump_typed
+
+    expected = load_scenario()
+    expected.camera.dropout = 0.2
+    loaded = load_scenario(write(tmp_path / "dropouts.yaml", "camera:\n  dropout: 0.2\n"))
+    assert loaded.world.flight_accuracy == load_scenario().world.flight_accuracy > 0.0
+    assert yaml_dump_typed(loaded) == yaml_dump_typed(expected)
+
+
 def test_latency_counts_whole_frames():
     assert CameraConfig(latency=1 / 60).latency_frames == 1
     assert CameraConfig(latency=0.016667).latency_frames == 1
