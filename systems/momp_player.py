@@ -290,14 +290,14 @@ class MoMPTrajectorySource(StagePlanPlayer):
         preparing = plan.stage_at(now) == PREPARATION
         new, idx, nu = self._plan_primitives(now, plan, x, t_hit, q_hit, qd_hit, preparing)
         spinless = False
-        if new is None and self.library is not None and self._qd_spinless.HasValue(context):
+        qd_spinless = (self._spinless_goal(context, qd_hit)
+                       if new is None and self.library is not None else None)
+        if qd_spinless is not None:
             # No primitive plan fits the limits with the spin-aware racket: try the racket that
             # does not follow the spinning ball's contact point (HittingConfiguration).
-            qd_spinless = np.array(self._qd_spinless.Eval(context))
-            if float(np.abs(qd_spinless - qd_hit).max()) > self.config.replan_configuration:
-                alt = self._plan_primitives(now, plan, x, t_hit, q_hit, qd_spinless, preparing)
-                if alt[0] is not None:
-                    (new, idx, nu), qd_hit, spinless = alt, qd_spinless, True
+            alt = self._plan_primitives(now, plan, x, t_hit, q_hit, qd_spinless, preparing)
+            if alt[0] is not None:
+                (new, idx, nu), qd_hit, spinless = alt, qd_spinless, True
         fallback = new is None and self.library is not None
         if new is None:
             if fallback and old.stroke is not None:
@@ -349,11 +349,10 @@ class MoMPTrajectorySource(StagePlanPlayer):
         # The goal's velocities tried in turn: the configuration's, then (if connected and
         # different) the racket that does not follow the spinning ball's contact point.
         tries = [(np.array(qd_hit), sticky)]
-        if not sticky and self._qd_spinless.HasValue(context):
-            qd_spinless = np.array(self._qd_spinless.Eval(context))
-            if (float(np.abs(qd_spinless - qd_hit).max()) > self.config.replan_configuration
-                    and self._needs_replan(old.stroke, p_hit, t_hit, q_hit, qd_spinless)):
-                tries.append((qd_spinless, True))
+        qd_spinless = None if sticky else self._spinless_goal(context, qd_hit)
+        if qd_spinless is not None and self._needs_replan(old.stroke, p_hit, t_hit, q_hit,
+                                                          qd_spinless):
+            tries.append((qd_spinless, True))
         for qd_goal, spinless in tries:
             try:
                 new, idx, nu = move_hitting_goal(now, old.plan, x, t_hit, q_hit, qd_goal,
@@ -370,6 +369,15 @@ class MoMPTrajectorySource(StagePlanPlayer):
                 return None
         state.get_mutable_abstract_state(self._index).set_value(refused)
         return None
+
+    def _spinless_goal(self, context, qd_hit) -> np.ndarray | None:
+        """The configuration's ``theta_dot_hit_spinless`` when that input is connected and
+        differs from ``qd_hit`` by more than ``replan_configuration`` on some joint (a goal worth
+        trying when the one with ``qd_hit`` is refused); else None."""
+        if not self._qd_spinless.HasValue(context):
+            return None
+        qd = np.array(self._qd_spinless.Eval(context))
+        return qd if float(np.abs(qd - qd_hit).max()) > self.config.replan_configuration else None
 
     def _hold_if_lost(self, context, state, old: _State, now: float) -> bool:
         """The safety behaviour: if a measured joint is faster than ``hold_speed`` times its
