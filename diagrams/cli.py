@@ -301,11 +301,16 @@ def build_parser() -> argparse.ArgumentParser:
         learn.add_argument(f"--{name}-borrow", type=_bounded_float(0.0, 1.0), default=0.5,
                            help=f"library: {name} DMP joints whose amplitude is below this "
                                 f"fraction of the largest take its shape (0: none; default 0.5)")
-    learn.add_argument("--kappa", type=_bounded_float(0.0, None), default=1.0,
+    from tt_drake.responsibility import ResponsibilityParams
+
+    responsibility = ResponsibilityParams()  # the defaults are the paper profile's
+    learn.add_argument("--kappa", type=_bounded_float(0.0, None),
+                       default=responsibility.kappa,
                        help="library: responsibility learning's rate kappa (Eq. 10)")
-    learn.add_argument("--zeta", type=_bounded_float(0.0, 100.0), default=0.25,
+    learn.add_argument("--zeta", type=_bounded_float(0.0, 100.0), default=responsibility.zeta,
                        help="library: responsibility learning's zeta (Eq. 10)")
-    learn.add_argument("--threshold", type=_bounded_float(0.0, 0.99), default=0.1,
+    learn.add_argument("--threshold", type=_bounded_float(0.0, 0.99),
+                       default=responsibility.threshold,
                        help="library: the responsibility below which a primitive is pruned "
                             "(Algorithm 3)")
 
