@@ -17,7 +17,8 @@
     tt-drake serve --player momp --artefacts hard ...  (the hard protocol's shipped artefacts)
     tt-drake serve --player crkr [--crkr FILE --predictor FILE] ...  (CrKR + teacher's quintics)
     tt-drake reproduce --out DIR [--quick] [--workers N] [--executor local|ray]
-                       [--protocol paper|hard] [--sizes full|quick|artefacts] [--until STAGE]
+                       [--protocol paper|hard|hard-stiff] [--sizes full|quick|artefacts]
+                       [--until STAGE]
     tt-drake rally --players A B --rallies N --seed S [--start serve|rally] [--max-exchanges 50]
                    [--html out.html] [--json out.json] [--workers W]   (docs/rally.md)
     tt-drake --version
@@ -44,6 +45,7 @@ class CliError(Exception):
 PLAYER_NAMES = ("idle", "analytical", "momp", "crkr")
 CONFIGURATION_NAMES = ("crkr", "analytical")
 ARTEFACT_SET_NAMES = ("paper", "hard")  # tt_drake.models.ARTEFACT_SETS
+PROTOCOL_NAMES = ("paper", "hard", "hard-stiff")  # tt_drake.diagrams.reproduce.PROTOCOLS
 REPRODUCE_STAGES = ("teacher", "predictor", "library", "crkr", "single", "gamma1",
                     "responsibility", "power", "final")  # tt_drake.diagrams.reproduce.STAGES
 EXECUTOR_NAMES = ("local", "ray")
@@ -344,15 +346,16 @@ def build_parser() -> argparse.ArgumentParser:
                      help="parallel worker processes (default: all cores)")
     rep.add_argument("--executor", default="local", type=_one_of("executor", EXECUTOR_NAMES),
                      choices=EXECUTOR_NAMES, help="where rollouts run")
-    rep.add_argument("--protocol", default="paper", choices=("paper", "hard"),
+    rep.add_argument("--protocol", default="paper", choices=PROTOCOL_NAMES,
                      help="paper: the paper's experiments on default serves; hard: learn from "
                           "spin and recorded serves, judged on unseen ones against the oracle "
-                          "teacher's ceiling (docs/reproducing.md)")
+                          "teacher's ceiling (docs/reproducing.md); hard-stiff: the same with "
+                          "the stiffer hitting DMP of models/learned-hard/")
     rep.add_argument("--sizes", default=None, choices=("full", "quick", "artefacts"),
                      help="the stages' serve counts, the protocol's: full (the default), quick "
                           "(= --quick), or "
                           "artefacts (the training stages' sizes that made "
-                          "models/learned-hard/, with --until crkr)")
+                          "models/learned-hard/, with --protocol hard-stiff --until crkr)")
     rep.add_argument("--until", default=None, choices=REPRODUCE_STAGES,
                      help="stop after this stage; from crkr on, export the artefacts trained so "
                           "far to DIR/artefacts/")

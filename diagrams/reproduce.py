@@ -61,7 +61,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from tt_drake.diagrams.train import HARD_PROFILE
+from tt_drake.diagrams.train import HARD_PROFILE, STIFF_HARD_PROFILE
 from tt_drake.outputs import claim_folder, portable_path, write_json_atomic
 from tt_drake.provenance import run_provenance
 
@@ -165,7 +165,7 @@ def hard_quick_config() -> ReproduceConfig:
 
 def artefacts_config() -> ReproduceConfig:
     """The sizes that trained the shipped hard artefacts (``models/learned-hard/``, with
-    ``--protocol hard --sizes artefacts --until crkr``): the training stages only, sized for a
+    ``--protocol hard-stiff --sizes artefacts --until crkr``): the training stages only, sized for a
     session on a shared 2-core machine (50 teacher serves of each training distribution); CrKR
     is its first policy iteration (the teacher's pairs)."""
     return replace(ReproduceConfig(), teacher_serves=150, predictor_train_serves=300,
@@ -238,6 +238,10 @@ PROTOCOLS = {
                      library=tuple(HARD_PROFILE.items()), predictor_features="states+spin",
                      moving_goal=True, configuration="analytical"),
 }
+# The hard protocol with the stiffer hitting DMP that made the shipped hard set
+# (``--protocol hard-stiff --sizes artefacts --until crkr``): the same serves, stages and player.
+PROTOCOLS["hard-stiff"] = replace(PROTOCOLS["hard"], name="hard-stiff",
+                                  library=tuple(STIFF_HARD_PROFILE.items()))
 
 
 # ----------------------------------------------------------------------------- run folder
@@ -957,7 +961,7 @@ def _per_protocol(paper, hard):
         if protocol not in PROTOCOLS:
             raise ReproduceError(f"unknown protocol {protocol!r}; choose one of "
                                  f"{', '.join(PROTOCOLS)}")
-        return (hard if protocol == "hard" else paper)()
+        return (paper if protocol == "paper" else hard)()
     return sizes
 
 

@@ -22,7 +22,8 @@ class ArtefactSet:
 
 
 #: ``paper``: the paper profile's run on default serves (``tt-drake reproduce``); ``hard``: the
-#: hard profile's training stages on spin, real and rally serves (models/learned-hard/README.md),
+#: hard protocol's training stages on spin, real and rally serves with the stiffer hitting DMP
+#: (``--protocol hard-stiff``, models/learned-hard/README.md),
 #: played with the hitting DMP's moving goal and the teacher's IK as the hitting configuration
 #: (its CrKR, trained on 111 strokes, returned fewer real serves: docs/learned_player.md).
 ARTEFACT_SETS = {"paper": ArtefactSet("learned"),

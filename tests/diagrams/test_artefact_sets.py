@@ -125,11 +125,34 @@ def test_reproduce_until_crkr_runs_the_training_stages_and_exports_them(tmp_path
         rp.reproduce(tmp_path / "other", workers=1, progress=False, until="rehearsal")
 
 
+def test_the_shipped_hard_library_has_the_hard_stiff_protocols_settings():
+    """models/learned-hard/ was made by the recipe ``--protocol hard-stiff --sizes artefacts
+    --until crkr`` names (its README): the library's recorded DMP gains, responsibility
+    parameters, demonstrations, borrowing and stimulus are those the protocol trains with, and
+    the hard protocol's differ (a softer DMP, Eq. 10 able to prune)."""
+    from tt_drake.diagrams import reproduce as rp
+    from tt_drake.diagrams.train import library_options
+    from tt_drake.learned_player import load_player_library
+
+    _, _, meta = load_player_library(shipped_artefact("library", "hard"), "default")
+    config = rp.SIZES["artefacts"]("hard-stiff")
+    assert config == rp.artefacts_config() and meta["dataset_serves"] == config.teacher_serves
+    for protocol, same in (("hard-stiff", True), ("hard", False)):
+        options = library_options(rp.PROTOCOLS[protocol].library_settings(config))
+        assert (options["dmp"].to_dict() == meta["dmp"]) == same
+        responsibility = options.get("responsibility")
+        assert (responsibility is None and meta["responsibility"] == {
+            "kappa": 1.0, "zeta": 0.25, "threshold": 0.1}) == same
+        assert options["demonstrations"] == meta["demonstrations"]
+        assert options["hitting_borrow"] == meta["hitting_borrow"]
+        assert list(options["stimulus"]) == meta["stimulus"]
+
+
 def test_reproduce_sizes_and_stages_named_in_the_cli_are_the_modules():
     from tt_drake.diagrams import reproduce as rp
-    from tt_drake.diagrams.cli import REPRODUCE_STAGES
+    from tt_drake.diagrams.cli import PROTOCOL_NAMES, REPRODUCE_STAGES
 
-    assert REPRODUCE_STAGES == rp.STAGES
+    assert REPRODUCE_STAGES == rp.STAGES and PROTOCOL_NAMES == tuple(rp.PROTOCOLS)
     assert set(rp.SIZES) == {"full", "quick", "artefacts"}
     assert rp.SIZES["quick"]() == rp.quick_config()
     assert main(["reproduce", "--out", "x", "--quick", "--sizes", "artefacts"]) == 2

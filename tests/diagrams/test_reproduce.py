@@ -328,7 +328,7 @@ def test_hard_report_rows_give_the_ceiling_and_the_early_strokes():
 
 def test_the_hard_protocol_trains_its_library_crkr_and_predictor_with_its_own_settings():
     """The paper profile's stages read the run's config (the shipped artefacts' settings); the
-    hard profile's library and CrKR take HARD_PROFILE (recorded strokes, alpha_y 15, spin in the
+    hard profile's library and CrKR take HARD_PROFILE (recorded strokes, alpha_y 11, spin in the
     stimulus) and its GPR the spin features, trained on its training mix."""
     from tt_drake.diagrams.reproduce import PROTOCOLS, quick_config
     from tt_drake.diagrams.train import library_options, stimulus_of
@@ -339,9 +339,22 @@ def test_the_hard_protocol_trains_its_library_crkr_and_predictor_with_its_own_se
     assert stimulus_of(PROTOCOLS["paper"].library_settings(config)) == PAPER_STIMULUS
     assert PROTOCOLS["paper"].predictor_features == "states"
     hard = library_options(PROTOCOLS["hard"].library_settings(config))
-    assert hard["stimulus"] == SPIN_STIMULUS and hard["dmp"].alpha_y == 15.0
+    assert hard["stimulus"] == SPIN_STIMULUS and hard["dmp"].alpha_y == 11.0
     assert hard["demonstrations"] == "recorded" and hard["hitting_borrow"] == 0.0
     assert PROTOCOLS["hard"].predictor_features == "states+spin"
+    # Its Eq. 10 can prune a primitive that took the ~3 rollouts' worth of gating weight a
+    # primitive gets in the full run (1,000 rollouts over 300 primitives) and earned a reward of
+    # 0.3 (legal returns far off the target) in each; the defaults (kappa 1) cannot.
+    from tt_drake.responsibility import ResponsibilityParams, responsibility_update
+
+    def pruned(params, rollouts=3, reward=0.3):
+        s, n = np.zeros(1), np.zeros(1)
+        for _ in range(rollouts):
+            s, n, gamma, prune = responsibility_update(s, n, [1.0], reward, params)
+        return bool(prune[0])
+
+    assert pruned(hard["responsibility"]) and not pruned(ResponsibilityParams())
+    assert not pruned(hard["responsibility"], reward=0.9)  # a primitive returning on target
 
 
 @pytest.mark.parametrize("protocol, perception", [("paper", "oracle"), ("hard", "camera")])

@@ -198,7 +198,7 @@ def test_reproduce_profiles_pass_their_library_settings():
 
     assert library_options(SimpleNamespace(primitives=300)) == {"stimulus": PAPER_STIMULUS}
     hard = library_options(SimpleNamespace(**HARD_PROFILE))
-    assert hard["stimulus"] == SPIN_STIMULUS and hard["dmp"].alpha_y == 15.0
+    assert hard["stimulus"] == SPIN_STIMULUS and hard["dmp"].alpha_y == 11.0
     assert hard["demonstrations"] == "recorded" and hard["hitting_borrow"] == 0.0
     assert stimulus_of(SimpleNamespace(stimulus=["p_hit", "v_hit"])) == PAPER_STIMULUS
 
