@@ -185,22 +185,21 @@ def _representative(demos: list[Demonstration], stage: str) -> Demonstration:
     return demos[int(np.argsort(taus)[len(taus) // 2])]
 
 
-# The library and CrKR settings of the hard reproduce profile (issue #14; the demonstrations and
-# borrowing measured in docs/motor_primitives.md section 10). alpha_y 11 leaves the impact to the
-# primitives (gamma = 1 returns 93.4 % of 1,000 spin serves where alpha_y 15 returns 96.4 %) so
-# that responsibility learning and PoWER have something to select and adapt; kappa 4 and zeta 0.5
-# let Eq. 10 prune a primitive after the ~3 rollouts' worth of gating weight it gets (kappa 1
-# cannot): docs/reproducing.md, "The hard profile at alpha_y 11". The paper profile keeps
-# train_library's defaults.
-HARD_PROFILE = {"demonstrations": "recorded", "alpha_y": 11.0, "stimulus": "spin",
-                "hitting_borrow": 0.0, "stage_borrow": WEAK_AMPLITUDE_RATIO,
-                "kappa": 4.0, "zeta": 0.5}
 # The hard profile's settings until session 12, which trained the shipped hard set
-# (models/learned-hard/): a stiffer hitting DMP (alpha_y 15) reaches the teacher's hitting
-# configuration whatever its weights, so its library plays best without learning (gamma = 1: 96.4 %
-# of 1,000 spin serves) and learning has nothing to select; Eq. 10 with the defaults (kappa 1).
-STIFF_HARD_PROFILE = {**{k: v for k, v in HARD_PROFILE.items() if k not in ("kappa", "zeta")},
-                      "alpha_y": 15.0}
+# (models/learned-hard/, ``--protocol hard-stiff``): the library imitates the arm's recorded
+# strokes with no borrowing in the hitting primitives and gates on the spin (measured in
+# docs/motor_primitives.md section 10); its stiff hitting DMP (alpha_y 15) reaches the teacher's
+# hitting configuration whatever its weights, so the library plays best without learning
+# (gamma = 1: 96.4 % of 1,000 spin serves) and learning has nothing to select; Eq. 10 with the
+# defaults (kappa 1).
+STIFF_HARD_PROFILE = {"demonstrations": "recorded", "alpha_y": 15.0, "stimulus": "spin",
+                      "hitting_borrow": 0.0, "stage_borrow": WEAK_AMPLITUDE_RATIO}
+# The hard reproduce profile (issue #14): alpha_y 11 leaves the impact to the primitives
+# (gamma = 1 returns 93.4 % of 1,000 spin serves) so that responsibility learning and PoWER have
+# something to select and adapt; kappa 4 and zeta 0.5 let Eq. 10 prune a primitive after the ~3
+# rollouts' worth of gating weight it gets (kappa 1 cannot): docs/reproducing.md, "The hard
+# profile at alpha_y 11". The paper profile keeps train_library's defaults.
+HARD_PROFILE = {**STIFF_HARD_PROFILE, "alpha_y": 11.0, "kappa": 4.0, "zeta": 0.5}
 
 
 def library_options(config) -> dict:
