@@ -17,9 +17,10 @@ The referee ends the episode (``EventStatus.ReachedTermination``, which stops
 ``Simulator.AdvanceTo``) once the ball has fallen below ``stop_below`` metres: by then every
 outcome is settled, and a ball sliding along the floor costs the integrator four times the steps
 of a ball in flight. With ``stop_when_decided`` it ends the episode earlier, at the first contact
-after the racket's hit on the table, the net or the floor (the landing, or the fault): it decides
-the outcome (:func:`tt_drake.referee_rules.judge`), and the return flight after it is a third
-of a returned ball's episode.
+after the racket's hit on the table or the floor (the landing, or the fault; a net contact
+decides nothing, the ball may still drop onto the opponent's court): it decides the outcome
+(:func:`tt_drake.referee_rules.judge`), and the return flight after it is a third of a returned
+ball's episode.
 """
 
 from __future__ import annotations

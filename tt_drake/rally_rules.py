@@ -9,14 +9,15 @@ A's frame is the world frame, B's is the world seen through M (M is its own inve
 an axial vector, turns with the same rotation.
 
 An **exchange** is one legal return: the receiver hits the ball and it first lands on the
-opponent's half, clearing the net (``judge`` in the receiver's frame says ``returned``). Then the
-opponent receives; its events start with that landing, a bounce on its own half. The rally ends
-at the first fault of the receiver (:func:`decide`):
+opponent's half, touching the net on the way or not (``judge`` in the receiver's frame says
+``returned``). Then the opponent receives; its events start with that landing, a bounce on
+its own half. The rally ends at the first fault of the receiver (:func:`decide`):
 
 - ``missed``: the ball reached the floor without the receiver's racket touching it;
 - ``double_bounce``: it bounced twice on the receiver's half before the hit;
 - ``net``, ``own_half`` (it never reached the other side), ``out``, ``double_hit``: after the hit,
-  as :func:`tt_drake.referee_rules.judge` names them;
+  as :func:`tt_drake.referee_rules.after_hit` names them (a return that touches the net and
+  lands on the opponent's half is an exchange);
 - ``no_landing``: nothing decided ``exchange_timeout`` seconds after the exchange began (the ball
   rests or rolls somewhere; ``missed`` if the receiver never hit it);
 
@@ -31,8 +32,9 @@ from tt_drake.referee_rules import (
     RACKET_CONTACT,
     TABLE_CONTACT,
     ContactEvent,
-    judge,
+    after_hit,
     merge_contacts,
+    receiver_bounces,
 )
 
 SIDES = ("A", "B")
@@ -133,24 +135,21 @@ def decide(events: list[ContactEvent], t: float, started: float,
     """The receiver's exchange so far, from its contact events in its own frame (the first is
     the bounce that began it): ``("returned", landing)``, ``("fault", kind)`` or None (not
     decided yet) at time ``t``; ``started``: when the exchange began (see the module
-    docstring). The classification after the hit is :func:`tt_drake.referee_rules.judge`'s."""
+    docstring). The rules are the serve's (:func:`tt_drake.referee_rules.receiver_bounces` before
+    the hit, :func:`tt_drake.referee_rules.after_hit` after it)."""
     merged = merge_contacts(events)
-    hit = next((i for i, e in enumerate(merged) if e.kind == RACKET_CONTACT), None)
-    before = merged if hit is None else merged[:hit]
-    if sum(e.kind == TABLE_CONTACT and e.position[1] < 0.0 for e in before) >= 2:
+    if receiver_bounces(merged) >= 2:
         return "fault", "double_bounce"
+    hit = next((i for i, e in enumerate(merged) if e.kind == RACKET_CONTACT), None)
     if hit is None:
-        if any(e.kind == FLOOR_CONTACT for e in before) or t - started > timeout:
+        if any(e.kind == FLOOR_CONTACT for e in merged) or t - started > timeout:
             return "fault", "missed"
         return None
-    outcome = judge(merged)
-    if outcome.returned:
-        return "returned", outcome.landing
-    kind = outcome.faults[-1]
-    if kind != "no_landing":
-        return "fault", kind
+    ret = after_hit(merged[hit + 1:])
+    if ret.decided:
+        return ("returned", ret.landing) if ret.fault is None else ("fault", ret.fault)
     if t - started > timeout:
-        return "fault", "no_landing"
+        return "fault", ret.fault
     return None
 
 

@@ -5,17 +5,23 @@ they are detected from the samples themselves: between two samples the flight la
 (:class:`tt_drake.ball_model.BallModel`) predicts the velocity change; a larger change means a
 contact happened, and where the ball was tells which surface it touched.
 
-Outcome classes (one per episode):
+Outcome classes (one per episode), by the ITTF Laws 2.5-2.10 (docs/rules.md):
 
 - ``missed``: the racket never touched the ball;
-- ``returned``: a legal return: after the racket hit, the ball cleared the net without touching it
-  and first landed on the opponent's half;
-- ``fault``: hit but not returned, with the fault named: ``net`` (touched the net or a post after
-  the hit), ``own_half`` (first landed on the robot's half), ``out`` (reached the floor without
+- ``returned``: a legal return: after the racket hit, the ball first landed on the opponent's
+  half (it may touch the net assembly on the way: Law 2.7.1, a "let" only for a serve), and
+  before the hit it had bounced at most once on the robot's half;
+- ``fault``: hit but not returned, with the fault named: ``double_bounce`` (the ball had bounced
+  twice on the robot's half before the hit: the point was lost there, whatever the stroke
+  did), ``net`` (touched the net or a post after the hit and then did not reach the opponent's
+  court), ``own_half`` (first landed on the robot's half), ``out`` (reached the floor without
   landing on the table), ``double_hit``, ``no_landing`` (still in the air at the end).
 
-Independently of the class, ``double_bounce`` (the serve bounced twice on the robot's half before
-any hit) and ``robot_table`` (the robot touched the table) are recorded as faults.
+Independently of the class, ``double_bounce`` is also recorded for a missed ball that bounced
+twice on the robot's half and ``robot_table`` when the robot touched the table; ``net_touch``
+(not a fault) says that the return touched the net assembly. :func:`receiver_bounces` and
+:func:`after_hit` are the two rules every referee reads (this module's :func:`judge`, and the
+rally's :func:`tt_drake.rally_rules.decide`).
 
 Reward in [0, 1] (the paper's r of Eq. 10 and Algorithm 3, which it does not define further): 0
 when missed; 0.2 for a hit that is not returned; a legal return earns
@@ -155,6 +161,7 @@ class Outcome:
     target_distance: float | None = None
     hit_time: float | None = None
     reward: float = 0.0
+    net_touch: bool = False  # the return touched the net assembly (legal if it then landed)
 
     def as_dict(self) -> dict:
         return {
@@ -164,15 +171,67 @@ class Outcome:
             "target_distance": None if self.target_distance is None
             else round(self.target_distance, 4),
             "hit_time": None if self.hit_time is None else round(self.hit_time, 4),
-            "reward": round(self.reward, 4),
+            "reward": round(self.reward, 4), "net_touch": self.net_touch,
         }
+
+
+def receiver_bounces(events) -> int:
+    """How many times the ball bounced on the receiver's half (y < 0 in its frame) before the
+    receiver's first racket contact (or in all of ``events`` if there is none). Two or more is a
+    lost point for the receiver (ITTF Law 2.10.1.3): the ball is out of play at the second."""
+    n = 0
+    for e in events:
+        if e.kind == RACKET_CONTACT:
+            break
+        n += e.kind == TABLE_CONTACT and e.position[1] < 0.0
+    return n
+
+
+@dataclass(frozen=True)
+class Return:
+    """What the ball did after the racket's hit (:func:`after_hit`): ``fault`` (None for a legal
+    return, else its name), ``landing`` (x, y of the first table contact, or None),
+    ``net_touch`` (it touched the net assembly) and ``decided`` (a contact settled it; if not,
+    ``fault`` is what the ball's state so far makes it: ``net`` after a net touch, else
+    ``no_landing``)."""
+
+    fault: str | None
+    landing: tuple[float, float] | None
+    net_touch: bool
+    decided: bool
+
+
+def after_hit(events) -> Return:
+    """The return's verdict from the contacts after the racket's hit, in the striker's frame.
+
+    The first table contact decides: on the opponent's half (y > 0) a legal return, whether or
+    not the ball touched the net on the way (Law 2.7.1); on the striker's half ``net`` after a
+    net touch, else ``own_half``. The floor before any table contact is ``out`` (``net`` if the
+    ball touched the net and fell on the striker's side, y < 0); another racket or robot contact
+    is ``double_hit``. A net contact alone decides nothing: the ball may still drop over."""
+    net_touch = False
+    for e in events:
+        if e.kind == TABLE_CONTACT:
+            landing = (e.position[0], e.position[1])
+            if e.position[1] > 0.0:
+                return Return(None, landing, net_touch, True)
+            return Return("net" if net_touch else "own_half", landing, net_touch, True)
+        if e.kind == NET_CONTACT:
+            net_touch = True
+        elif e.kind == FLOOR_CONTACT:
+            fault = "net" if net_touch and e.position[1] < 0.0 else "out"
+            return Return(fault, None, net_touch, True)
+        elif e.kind in (RACKET_CONTACT, ROBOT_CONTACT):
+            return Return("double_hit", None, net_touch, True)
+    return Return("net" if net_touch else "no_landing", None, net_touch, False)
 
 
 def decides_return(events, event: ContactEvent) -> bool:
     """Whether ``event``, following ``events``, settles the episode's outcome: a contact with
-    the table, the net or the floor after the racket's hit (:func:`judge` reads no further). A
-    second racket event does not: one contact straddling two samples shows as two."""
-    return (event.kind in (TABLE_CONTACT, NET_CONTACT, FLOOR_CONTACT)
+    the table or the floor after the racket's hit (:func:`judge` reads no further). A net
+    contact does not (the ball may still drop onto the opponent's court), nor does a second
+    racket event: one contact straddling two samples shows as two."""
+    return (event.kind in (TABLE_CONTACT, FLOOR_CONTACT)
             and any(e.kind == RACKET_CONTACT for e in events))
 
 
@@ -194,39 +253,25 @@ def judge(events: list[ContactEvent], robot_touched_table: bool = False,
     events = merge_contacts(events)
     faults: list[str] = []
     hit_index = next((i for i, e in enumerate(events) if e.kind == RACKET_CONTACT), None)
-    before = events if hit_index is None else events[:hit_index]
-    robot_bounces = [e for e in before if e.kind == TABLE_CONTACT and e.position[1] < 0.0]
-    if len(robot_bounces) >= 2:
+    if receiver_bounces(events) >= 2:
         faults.append("double_bounce")
     if robot_touched_table:
         faults.append("robot_table")
     if hit_index is None:
         return _scored(Outcome("missed", False, False, False, faults), config)
     hit_time = events[hit_index].t
-    after = events[hit_index + 1:]
-    landing = None
-    fault = "no_landing"
-    for e in after:
-        if e.kind == TABLE_CONTACT:
-            landing = (e.position[0], e.position[1])
-            fault = None if e.position[1] > 0.0 else "own_half"
-            break
-        if e.kind == NET_CONTACT:
-            fault = "net"
-            break
-        if e.kind == FLOOR_CONTACT:
-            fault = "out"
-            break
-        if e.kind in (RACKET_CONTACT, ROBOT_CONTACT):
-            fault = "double_hit"
-            break
-    if fault is not None:
-        faults.append(fault)
-        outcome = Outcome("fault", True, False, False, faults, landing, hit_time=hit_time)
+    if "double_bounce" in faults:  # the point was lost before the stroke
+        return _scored(Outcome("fault", True, False, False, faults, hit_time=hit_time), config)
+    ret = after_hit(events[hit_index + 1:])
+    if ret.fault is not None:
+        faults.append(ret.fault)
+        outcome = Outcome("fault", True, False, False, faults, ret.landing, hit_time=hit_time,
+                          net_touch=ret.net_touch)
         return _scored(outcome, config)
+    landing = ret.landing
     d = math.hypot(landing[0] - config.target_x, landing[1] - config.target_y)
     outcome = Outcome("returned", True, True, d <= config.target_radius, faults, landing, d,
-                      hit_time)
+                      hit_time, net_touch=ret.net_touch)
     return _scored(outcome, config)
 
 

@@ -150,8 +150,81 @@ def test_the_return_is_decided_by_the_first_table_net_or_floor_contact_after_the
     assert not decides_return([bounce, hit], again)
     assert not decides_return([], bounce)
     assert decides_return([bounce, hit, again], landing)
-    for kind in ("net", "floor"):
-        assert decides_return([bounce, hit], ContactEvent(1.0, kind, np.zeros(3)))
+    assert decides_return([bounce, hit], ContactEvent(1.0, "floor", np.zeros(3)))
+    # the net decides nothing: a ball touching it may still drop onto the opponent's court
+    assert not decides_return([bounce, hit], ContactEvent(1.0, "net", np.zeros(3)))
     full = judge([bounce, hit, again, landing, ContactEvent(1.6, "floor", np.zeros(3))])
     cut = judge([bounce, hit, again, landing])
     assert full.as_dict() == cut.as_dict() and cut.returned
+
+
+# -- the rules on hand-made contact sequences (ITTF Laws 2.7.1, 2.10.1.3) -----------------------
+
+def contacts(*items):
+    """ContactEvents from (t, kind, y) triples (x = 0.1, z at the table or the floor)."""
+    from tt_drake.referee_rules import ContactEvent
+
+    z = {"table": TABLE.surface_z + R, "floor": R}
+    return [ContactEvent(t, kind, (0.1, y, z.get(kind, TABLE.surface_z + 0.1)))
+            for t, kind, y in items]
+
+
+def test_a_ball_hit_after_two_bounces_on_the_robots_half_is_a_lost_point():
+    """Two bounces on the receiver's half end the point: the stroke after them is no return,
+    however well it lands, and earns a failed stroke's reward."""
+    legal = contacts((0.3, "table", -0.4), (0.7, "racket", -1.8), (1.2, "table", 0.9))
+    late = contacts((0.3, "table", -0.4), (0.55, "table", -1.2), (0.7, "racket", -1.8),
+                    (1.2, "table", 0.9))
+    assert judge(legal).returned
+    outcome = judge(late)
+    assert outcome.outcome == "fault" and not outcome.returned and not outcome.on_target
+    assert outcome.faults == ["double_bounce"] and outcome.reward == pytest.approx(0.2)
+    # a serve's bounce on the server's half (y > 0) is not the receiver's
+    real = contacts((0.1, "table", 0.5), (0.3, "table", -0.4), (0.7, "racket", -1.8),
+                    (1.2, "table", 0.9))
+    assert judge(real).returned
+
+
+@pytest.mark.parametrize("after_net, outcome, faults", [
+    (("table", 0.4), "returned", []),  # Law 2.7.1: over the net assembly, touching it
+    (("table", -0.3), "fault", ["net"]),  # it fell back on the striker's half
+    (("floor", -0.2), "fault", ["net"]),  # it fell back off the table on the striker's side
+    (("floor", 2.5), "fault", ["out"]),  # over, but long
+])
+def test_a_return_touching_the_net_is_judged_by_where_it_lands(after_net, outcome, faults):
+    events = contacts((0.3, "table", -0.4), (0.7, "racket", -1.8), (1.0, "net", 0.0),
+                      (1.1, after_net[0], after_net[1]))
+    verdict = judge(events)
+    assert verdict.outcome == outcome and verdict.faults == faults and verdict.net_touch
+    assert verdict.returned == (outcome == "returned")
+    clean = judge(contacts((0.3, "table", -0.4), (0.7, "racket", -1.8), (1.1, "table", 0.4)))
+    assert clean.returned and not clean.net_touch
+    # the same landing earns the same reward with or without the touch
+    if verdict.returned:
+        assert verdict.reward == pytest.approx(clean.reward)
+
+
+def test_a_return_caught_by_the_net_is_a_net_fault():
+    verdict = judge(contacts((0.3, "table", -0.4), (0.7, "racket", -1.8), (1.0, "net", 0.0)))
+    assert verdict.outcome == "fault" and verdict.faults == ["net"]
+
+
+def test_the_rally_reads_the_same_rules():
+    """The rally's decide follows the serve's judge on every sequence above: a net touch that
+    lands over is an exchange; one with nothing after it waits (until the timeout); two bounces
+    before the hit end the exchange whatever follows."""
+    from tt_drake.rally_rules import decide
+
+    over = contacts((0.3, "table", -0.4), (0.7, "racket", -1.8), (1.0, "net", 0.0),
+                    (1.1, "table", 0.4))
+    assert decide(over, 1.2, 0.3, 3.0) == ("returned", (0.1, 0.4))
+    caught = over[:3]
+    assert decide(caught, 1.2, 0.3, 3.0) is None
+    assert decide(caught, 3.5, 0.3, 3.0) == ("fault", "net")
+    late = contacts((0.3, "table", -0.4), (0.55, "table", -1.2), (0.7, "racket", -1.8),
+                    (1.2, "table", 0.9))
+    assert decide(late, 1.3, 0.3, 3.0) == ("fault", "double_bounce")
+    assert decide(late[:2], 0.6, 0.3, 3.0) == ("fault", "double_bounce")
+    for events in (over, late):
+        verdict = judge(events)
+        assert decide(events, 1.3, 0.3, 3.0)[0] == ("returned" if verdict.returned else "fault")
