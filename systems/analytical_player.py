@@ -128,7 +128,7 @@ TABLE_EDGE_PRIOR = 0.05
 #: (docs/performance.md, "Seventh pass") in a fifth of the steps, and a prediction is most of
 #: what the teacher computes per camera frame.
 PREDICTION_STEP = 0.01
-#: The step (s) of the test for a bounce behind the ball (``hitting_time.bounced_on_robot_half``,
+#: The step (s) of the test for a bounce behind the ball (``hitting_time.robot_half_bounces``,
 #: which looks at the path once a step): 2 ms, ~1 cm of the ball's travel, at the table's edges.
 BOUNCE_TEST_STEP = 2e-3
 
