@@ -218,8 +218,12 @@ def build_parser() -> argparse.ArgumentParser:
                        help="parallel worker processes (not with --html)")
     _add_perception_option(serve)
     serve.add_argument("--ceiling", action="store_true",
-                       help="also play the same serves with the oracle analytical player and "
-                            "report returnable_rate and return_rate_of_returnable")
+                       help="also play the same serves with the oracle strategies (the "
+                            "returnable bound, docs/rules.md) and report returnable_rate, "
+                            "return_rate_of_returnable and returns_outside_ceiling")
+    serve.add_argument("--ceiling-from", default=None, metavar="JSON",
+                       help="as --ceiling, with the returnable serves of this earlier --ceiling "
+                            "--json run of the same serves (no oracle runs)")
     _add_scenario_options(serve)
     _add_learned_options(serve)
 
@@ -444,7 +448,8 @@ def _serve(args) -> None:
     scenario = _scenario(args)
     _check_learned(player, scenario)
     data = run_serves(scenario, player, args.serves, args.seed, args.html, args.json,
-                      progress=not args.quiet, workers=args.workers, ceiling=args.ceiling)
+                      progress=not args.quiet, workers=args.workers, ceiling=args.ceiling,
+                      ceiling_from=args.ceiling_from)
     print(format_summary(data))
     for path in (args.json, args.html):
         if path:
@@ -620,6 +625,7 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from tt_drake.diagrams.predictor import PredictorError
     from tt_drake.diagrams.reproduce import ReproduceError
     from tt_drake.diagrams.scenario import ScenarioError
+    from tt_drake.diagrams.serve import CeilingFileError
     from tt_drake.diagrams.train import TrainError
     from tt_drake.hitting_point import PredictorFileError
     from tt_drake.learned_player import LearnedArtefactError
@@ -629,7 +635,7 @@ def _user_errors() -> tuple[type[BaseException], ...]:
 
     return (CliError, ScenarioError, ServeError, PlayerError, ModelFileError, OutputError,
             PredictorError, PredictorFileError, DatasetError, TrainError, LearnedArtefactError,
-            ReproduceError, ExecutorError, SeedError)
+            ReproduceError, ExecutorError, SeedError, CeilingFileError)
 
 
 def main(argv: list[str] | None = None) -> int:

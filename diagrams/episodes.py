@@ -96,14 +96,18 @@ def add_perception(builder: DiagramBuilder, world: World, scenario: Scenario,
     return [camera], estimator
 
 
-def _analytical_player(builder: DiagramBuilder, world: World, controller,
-                       scenario: Scenario, player_type=None) -> list:
+def add_analytical_player(builder: DiagramBuilder, world: World, controller,
+                          scenario: Scenario, player_type=None, config=None) -> list:
     """The teacher: camera -> estimator -> physical-model planner -> polynomial stages.
-    ``player_type``: a subclass of AnalyticalPlayer to wire instead (the Gymnasium envs)."""
+    ``player_type``: a subclass of AnalyticalPlayer to wire instead (the Gymnasium envs).
+    ``config``: the planner's :class:`PlannerConfig` (default: aiming at the scenario's
+    referee target)."""
     from tt_drake.systems.analytical_player import AnalyticalPlayer, PlannerConfig, StrokePlanner
 
     seeded, estimator = add_perception(builder, world, scenario)
-    config = PlannerConfig(target_x=scenario.referee.target_x, target_y=scenario.referee.target_y)
+    if config is None:
+        config = PlannerConfig(target_x=scenario.referee.target_x,
+                               target_y=scenario.referee.target_y)
     player = builder.AddNamedSystem("analytical_player",
                                     (player_type or AnalyticalPlayer)(StrokePlanner(config=config),
                                                                       setpoint_lead=SETPOINT_LEAD,
@@ -269,7 +273,7 @@ def _crkr_player(builder: DiagramBuilder, world: World, controller, scenario: Sc
     return _learned_player(builder, world, controller, scenario, primitives=False)
 
 
-PLAYERS: dict[str, Callable] = {"idle": _idle_player, "analytical": _analytical_player,
+PLAYERS: dict[str, Callable] = {"idle": _idle_player, "analytical": add_analytical_player,
                                 "momp": _momp_player, "crkr": _crkr_player}
 LEARNED_PLAYERS = ("momp", "crkr")
 
@@ -653,6 +657,8 @@ def summarize(results: list[EpisodeResult]) -> dict:
         "return_rate": sum(r.outcome.returned for r in results) / n if n else 0.0,
         "target_rate": sum(r.outcome.on_target for r in results) / n if n else 0.0,
         "mean_reward": sum(r.outcome.reward for r in results) / n if n else 0.0,
+        "double_bounce_faults": sum(r.outcome.hit and "double_bounce" in r.outcome.faults
+                                    for r in results),
     }
     arms = [r.arm for r in results if r.arm is not None]
     if arms:

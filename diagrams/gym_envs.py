@@ -63,7 +63,7 @@ from pydrake.gym import DrakeGymEnv
 from tt_drake.diagrams.episodes import (
     SETPOINT_LEAD,
     ServeDiagram,
-    _analytical_player,
+    add_analytical_player,
     add_perception,
     episode_seed,
 )
@@ -144,7 +144,7 @@ class ReturnBallEnv(gym.Env):
         if not (max_position_offset > 0 and max_velocity_offset > 0):
             raise ValueError("max_position_offset and max_velocity_offset must be > 0")
         self.scenario = make_scenario(scenario, distribution)
-        add_player = functools.partial(_analytical_player, player_type=StrokeOffsetPlayer)
+        add_player = functools.partial(add_analytical_player, player_type=StrokeOffsetPlayer)
         self.serve_diagram = ServeDiagram(self.scenario, player=add_player)
         self.player = self.serve_diagram.player
         self.scale = np.r_[np.full(7, float(max_position_offset)),

@@ -61,6 +61,13 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from tt_drake.diagrams.ceiling import (
+    STRATEGIES,
+    ceiling_summary,
+    oracle_scenario,
+    returnable_by,
+    strategy_player,
+)
 from tt_drake.diagrams.train import HARD_PROFILE, STIFF_HARD_PROFILE
 from tt_drake.outputs import claim_folder, portable_path, write_json_atomic
 from tt_drake.provenance import run_provenance
@@ -245,6 +252,10 @@ PROTOCOLS["hard-stiff"] = replace(PROTOCOLS["hard"], name="hard-stiff",
 
 
 # ----------------------------------------------------------------------------- run folder
+#: The run folder's format (``DIR/config.json``); see :meth:`Run._prepare`.
+RUN_FORMAT_VERSION = 2
+
+
 class Run:
     """The run folder: settings, stage folders and their results."""
 
@@ -260,8 +271,10 @@ class Run:
         self._prepare()
 
     def _prepare(self) -> None:
-        settings = {"format": "tt-drake-reproduce", "version": 1, "quick": self.quick,
-                    "config": self.config.to_dict()}
+        # ``version`` names the referee's rules and the returnable bound the stages' results
+        # are judged by: a folder of another version is refused, never resumed into a mix.
+        settings = {"format": "tt-drake-reproduce", "version": RUN_FORMAT_VERSION,
+                    "quick": self.quick, "config": self.config.to_dict()}
         if self.protocol.name != "paper":  # a paper run's settings are those of earlier runs
             settings["protocol"] = self.protocol.name
         # Held while this Run lives: a second run into the same folder is refused.
@@ -348,6 +361,33 @@ class Run:
         bar.close()
         return [e for c in range(n_chunks) for e in chunks[c]]
 
+    def strategy_returns(self, path: Path, scenario, strategy, indices: list[int], seed: int,
+                         desc: str = "") -> list[bool]:
+        """Whether the oracle teacher under ``strategy`` (:mod:`tt_drake.diagrams.ceiling`)
+        legally returns the serves ``indices`` (episode ``episode_seed(seed, i)``), kept in
+        ``path`` once all are played: a later run with the same indices reads them back."""
+        from tt_drake.diagrams.episodes import episode_seed
+        from tt_drake.diagrams.parallel import run_episodes
+
+        try:
+            saved = json.loads(path.read_text())
+            if saved["indices"] == indices and len(saved["returned"]) == len(indices):
+                return [bool(r) for r in saved["returned"]]
+        except (OSError, ValueError, KeyError, TypeError):
+            pass
+        seeds = [episode_seed(seed, i) for i in indices]
+        bar = tqdm(total=len(seeds), desc=desc or strategy.name, unit="serve", file=sys.stderr,
+                   disable=not self.progress, leave=False)
+        returned = []
+        for result in run_episodes(scenario, strategy_player(strategy), seeds, self.workers,
+                                   executor=self.executor):
+            returned.append(bool(result.outcome.returned))
+            bar.update()
+        bar.close()
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_json_atomic(path, {"indices": indices, "returned": returned})
+        return returned
+
     def train_rollouts(self, folder: Path, scenario, player: str, serves: int, seed: int,
                        gamma=None, desc: str = "", weights=None) -> list[dict]:
         """:meth:`rollouts` on the protocol's training serves: with one training distribution
@@ -414,26 +454,26 @@ def rates(episodes: list[dict]) -> dict:
     return out
 
 
-def ceiling_rates(episodes: list[dict], oracle: list[dict]) -> dict:
-    """The player's figures relative to the oracle teacher's returnable ceiling on the same
-    serves (``serve --ceiling``): the serves the oracle analytical player returned, and the
-    player's legal returns carried by the primitives among them."""
-    returnable = [bool(o["returned"]) for o in oracle]
-    n = sum(returnable)
+def ceiling_rates(episodes: list[dict], returnable: list[str | None],
+                  teacher: list[dict]) -> dict:
+    """The player's figures against the returnable bound on the same serves
+    (:func:`tt_drake.diagrams.ceiling.ceiling_summary`, ``serve --ceiling``), its legal returns
+    counted only where the primitives carried the stroke; on target and reward beside the
+    oracle teacher's (the bound's first strategy, ``teacher``, on every serve)."""
     carried = [not (e.get("stroke") or {}).get("fallback", False) for e in episodes]
-    returns = sum(bool(e["returned"]) and c and r
-                  for e, c, r in zip(episodes, carried, returnable, strict=True))
+    out = ceiling_summary([bool(e["returned"]) and c for e, c in zip(episodes, carried,
+                                                                      strict=True)], returnable)
+    # Any legal return outside the bound proves it wrong, carried by the primitives or not.
+    out["returns_outside_ceiling"] = ceiling_summary([bool(e["returned"]) for e in episodes],
+                                                     returnable)["returns_outside_ceiling"]
     # On target and reward, next to the oracle teacher's on the same serves: the player's on-target
     # strokes carried by the primitives per oracle on-target stroke, and its mean credited reward
     # (0 for a fallback stroke) per oracle mean reward.
     targets = sum(bool(e["on_target"]) and c for e, c in zip(episodes, carried, strict=True))
-    oracle_targets = sum(bool(o["on_target"]) for o in oracle)
+    oracle_targets = sum(bool(o["on_target"]) for o in teacher)
     reward = float(np.mean([credited_reward(e) for e in episodes])) if episodes else 0.0
-    oracle_reward = float(np.mean([o["reward"] for o in oracle])) if oracle else 0.0
-    return {"returnable_serves": n, "returnable_rate": n / len(oracle) if oracle else 0.0,
-            "returns_of_returnable": returns,
-            "return_rate_of_returnable": returns / n if n else None,
-            "oracle_target_rate": oracle_targets / len(oracle) if oracle else 0.0,
+    oracle_reward = float(np.mean([o["reward"] for o in teacher])) if teacher else 0.0
+    return {**out, "oracle_target_rate": oracle_targets / len(teacher) if teacher else 0.0,
             "target_of_ceiling": targets / oracle_targets if oracle_targets else None,
             "momp_mean_reward": reward, "oracle_mean_reward": oracle_reward,
             "reward_of_ceiling": reward / oracle_reward if oracle_reward > 0 else None}
@@ -676,12 +716,31 @@ def _evaluate(run: Run, folder: Path, scenario, label: str, dist: str, serves: i
     episodes = run.rollouts(folder, _dealt(scenario, dist, seed), "momp", serves, seed, desc=desc)
     out = {**rates(episodes), "seed": seed, "distribution": dist}
     if run.protocol.ceiling or label in run.protocol.ceiling_sets:
-        oracle_scenario = _dealt(run.scenario(), dist, seed)
-        oracle_scenario.perception = "oracle"
-        oracle = run.rollouts(run.folder("ceiling") / label, oracle_scenario, "analytical",
-                              serves, seed, desc=f"oracle teacher ({label} serves)")
-        out.update(ceiling_rates(episodes, oracle))
+        teacher, returnable = _returnable(run, label, _dealt(run.scenario(), dist, seed),
+                                          serves, seed)
+        out.update(ceiling_rates(episodes, returnable, teacher))
     return out, episodes
+
+
+def _returnable(run: Run, label: str, scenario, serves: int, seed: int
+                ) -> tuple[list[dict], list[str | None]]:
+    """The returnable bound on one evaluation set (:mod:`tt_drake.diagrams.ceiling`), played
+    once per run in ``DIR/ceiling/<label>``: the teacher strategy's episodes on every serve (in
+    resumable chunks) and, for each serve, the first strategy that returned it (each later
+    strategy's results in ``<strategy>.json``: :meth:`Run.strategy_returns`)."""
+    folder = run.folder("ceiling") / label
+    oracle = oracle_scenario(scenario)
+    first = STRATEGIES[0]
+    teacher = run.rollouts(folder, oracle, strategy_player(first), serves, seed,
+                           desc=f"oracle {first.name} ({label} serves)")
+
+    def play(strategy, indices):
+        if strategy is first:
+            return [bool(teacher[i]["returned"]) for i in indices]
+        return run.strategy_returns(folder / f"{strategy.name}.json", oracle, strategy, indices,
+                                    seed, desc=f"oracle {strategy.name} ({label} serves)")
+
+    return teacher, returnable_by(play, serves)
 
 
 def _gamma1_on_evaluation_serves(run: Run) -> dict:

@@ -1,10 +1,11 @@
 """``tt-drake serve``: N serves at a player; a summary, JSON results and a Meshcat HTML file.
 
-With ``ceiling`` the same serves are also played by the oracle analytical player (the true ball
-state, no noise: ``Scenario.perception = "oracle"``), whose legal returns mark the serves that
-are physically returnable from the robot's mount; the summary then gains ``returnable_rate``
-(with ``returnable_serves``, the count) and ``return_rate_of_returnable``: the player's legal
-returns among the returnable serves over their number (docs/serves.md).
+With ``ceiling`` the same serves are also played by the oracle strategies of
+:mod:`tt_drake.diagrams.ceiling` (the analytical player with the true ball state, choosing its
+hitting point and aim in several ways), whose legal returns mark the serves that are returnable
+from the robot's mount; the summary then gains ``returnable_rate`` (with ``returnable_serves``,
+the count), ``return_rate_of_returnable`` (the player's legal returns among the returnable
+serves over their number) and ``returns_outside_ceiling`` (docs/rules.md).
 """
 
 import copy
@@ -12,6 +13,12 @@ import sys
 
 from tqdm import tqdm
 
+from tt_drake.diagrams.ceiling import (
+    ceiling_summary,
+    oracle_scenario,
+    returnable_by,
+    strategy_player,
+)
 from tt_drake.diagrams.episodes import ServeDiagram, check_run, episode_seed, summarize
 from tt_drake.diagrams.scenario import Scenario, dump_scenario
 from tt_drake.outputs import check_writable, write_json_atomic, write_text_atomic
@@ -21,7 +28,7 @@ from tt_drake.result_fields import serve_fields
 
 def run_serves(scenario: Scenario, player: str, serves: int, seed: int, html: str | None = None,
                json_path: str | None = None, progress: bool = True, workers: int = 1,
-               ceiling: bool = False) -> dict:
+               ceiling: bool = False, ceiling_from: str | None = None) -> dict:
     """Run ``serves`` episodes; episode i uses ``episode_seed(seed, i)``. Returns the JSON dict.
 
     With ``workers`` > 1 the episodes run in that many processes (not with ``html``: the
@@ -29,8 +36,11 @@ def run_serves(scenario: Scenario, player: str, serves: int, seed: int, html: st
     played one after the other; recording is observation only (the episodes and their results
     are those of the same command without ``html``). A pool distribution deals its serves
     without repeats within the run (``LauncherConfig.run_seed``). ``ceiling``: see the module
-    docstring."""
+    docstring; ``ceiling_from``: take the returnable serves from this earlier ``--ceiling``
+    run's JSON of the same serves instead (:func:`read_returnable`)."""
     check_run(seed, serves)
+    if ceiling_from:
+        read_returnable(ceiling_from, None)  # a bad file stops the run before it starts
     for path in (html, json_path):
         if path:
             check_writable(path)
@@ -38,7 +48,8 @@ def run_serves(scenario: Scenario, player: str, serves: int, seed: int, html: st
     scenario.launcher.run_seed = seed
     recording = None
     if not html and workers > 1:
-        results = _episodes(scenario, player, serves, seed, progress, workers)
+        seeds = [episode_seed(seed, i) for i in range(serves)]
+        results = _episodes(scenario, player, seeds, progress, workers)
     else:
         diagram = ServeDiagram(scenario, player, log_ball=bool(html))
         if html:
@@ -48,7 +59,9 @@ def run_serves(scenario: Scenario, player: str, serves: int, seed: int, html: st
         seeds = (episode_seed(seed, i) for i in range(serves))
         results = serve_episodes(diagram, seeds, recording, progress, player, total=serves)
     data = _report(scenario, player, seed, results)
-    if ceiling:
+    if ceiling_from:
+        add_returnable(data, results, read_returnable(ceiling_from, data))
+    elif ceiling:
         add_ceiling(data, scenario, player, serves, seed, results, progress, workers)
     if recording is not None:
         write_text_atomic(html, recording.html(data))
@@ -109,13 +122,13 @@ def scenario_dict(scenario: Scenario) -> dict:
     return data
 
 
-def _episodes(scenario, player, serves, seed, progress, workers) -> list:
+def _episodes(scenario, player, seeds: list[int], progress: bool, workers: int,
+              label: str | None = None) -> list:
     from tt_drake.diagrams.parallel import run_episodes
 
-    seeds = (episode_seed(seed, i) for i in range(serves))  # streamed, not listed
     results = []
-    bar = tqdm(total=serves, desc=f"serving ({player}, {workers} workers)", unit="serve",
-               file=sys.stderr, disable=not progress)
+    bar = tqdm(total=len(seeds), desc=f"serving ({label or player}, {workers} workers)",
+               unit="serve", file=sys.stderr, disable=not progress)
     returned = 0  # counted as the results come (summarize at each would be O(serves^2))
     for result in run_episodes(scenario, player, seeds, workers):
         results.append(result)
@@ -128,34 +141,65 @@ def _episodes(scenario, player, serves, seed, progress, workers) -> list:
 
 def add_ceiling(data: dict, scenario: Scenario, player: str, serves: int, seed: int,
                 results: list, progress: bool, workers: int) -> None:
-    """Play the run's serves with the oracle analytical player (unless the run is that player)
-    and add the returnable serves to ``data``: per episode ``returnable``, and in the summary
-    ``returnable_rate``, ``returnable_serves``, ``return_rate_of_returnable`` (None when no
-    serve is returnable) and ``returns_of_returnable``."""
-    if player == "analytical" and scenario.perception == "oracle":
-        returnable = [r.outcome.returned for r in results]
-    else:
-        returnable = oracle_returns(scenario, serves, seed, progress, workers)
-    returned = sum(r.outcome.returned and ok for r, ok in zip(results, returnable, strict=True))
-    n = sum(returnable)
-    summary = data["summary"]
-    summary["returnable_rate"] = n / serves if serves else 0.0
-    summary["returnable_serves"] = n
-    summary["returns_of_returnable"] = returned
-    summary["return_rate_of_returnable"] = returned / n if n else None
-    for episode, ok in zip(data["episodes"], returnable, strict=True):
-        episode["returnable"] = bool(ok)
+    """Find the run's returnable serves (:mod:`tt_drake.diagrams.ceiling`) and add them to
+    ``data``: per episode ``returnable`` and ``returnable_by`` (the first oracle strategy that
+    returned it), and in the summary the figures of
+    :func:`tt_drake.diagrams.ceiling.ceiling_summary`."""
+    add_returnable(data, results, returnable_serves(scenario, serves, seed, progress, workers))
 
 
-def oracle_returns(scenario: Scenario, serves: int, seed: int, progress: bool = False,
-                   workers: int = 1) -> list[bool]:
-    """Whether the oracle analytical player legally returns each serve of the run (episode i:
-    ``episode_seed(seed, i)``, the pools dealt by ``scenario.launcher.run_seed``): the returnable
-    serves. ``scenario`` is left as it was."""
-    teacher = copy.deepcopy(scenario)
-    teacher.perception = "oracle"
-    return [r.outcome.returned
-            for r in _episodes(teacher, "analytical", serves, seed, progress, workers)]
+def add_returnable(data: dict, results: list, returnable: list[str | None]) -> None:
+    """Add the returnable serves (per serve the first oracle strategy that returns it, or None)
+    to the run's ``data`` (see :func:`add_ceiling`)."""
+    data["summary"].update(ceiling_summary([r.outcome.returned for r in results], returnable))
+    for episode, by in zip(data["episodes"], returnable, strict=True):
+        episode["returnable"] = by is not None
+        episode["returnable_by"] = by
+
+
+class CeilingFileError(ValueError):
+    """A ``--ceiling-from`` file that is not an earlier ``--ceiling`` run of the same serves."""
+
+
+def read_returnable(path: str, data: dict | None) -> list[str | None]:
+    """The ``returnable_by`` of every serve of an earlier ``serve --ceiling --json`` run. With
+    the new run's ``data``, the file must hold the same serves: the same episode seeds and
+    launch states, in order (any player; the bound depends only on the serves)."""
+    import json
+
+    try:
+        with open(path, encoding="utf-8") as f:
+            saved = json.load(f)
+        episodes = saved["episodes"]
+        returnable = [e["returnable_by"] for e in episodes]
+        serves = [(e["seed"], e["launch_state"]) for e in episodes]
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        raise CeilingFileError(f"--ceiling-from {path}: not a serve --ceiling --json result "
+                               f"({' '.join(str(err).split())})") from None
+    if not all(r is None or isinstance(r, str) for r in returnable):
+        raise CeilingFileError(f"--ceiling-from {path}: returnable_by must be strategy names "
+                               f"or null")
+    if data is not None and serves != [(e["seed"], e["launch_state"])
+                                       for e in data["episodes"]]:
+        raise CeilingFileError(f"--ceiling-from {path}: another run's serves (the seed, "
+                               f"distribution, count or launcher settings differ)")
+    return returnable
+
+
+def returnable_serves(scenario: Scenario, serves: int, seed: int, progress: bool = False,
+                      workers: int = 1) -> list[str | None]:
+    """For each serve of the run (episode i: ``episode_seed(seed, i)``, the pools dealt by
+    ``scenario.launcher.run_seed``), the first oracle strategy that returns it legally, or None
+    (:func:`tt_drake.diagrams.ceiling.returnable_by`). ``scenario`` is left as it was."""
+    oracle = oracle_scenario(scenario)
+
+    def play(strategy, indices):
+        seeds = [episode_seed(seed, i) for i in indices]
+        return [r.outcome.returned for r in _episodes(
+            oracle, strategy_player(strategy), seeds, progress, workers,
+            label=f"oracle {strategy.name}")]
+
+    return returnable_by(play, serves)
 
 
 def format_summary(data: dict) -> str:
@@ -163,10 +207,13 @@ def format_summary(data: dict) -> str:
     line = (f"{data['player']} player, {s['serves']} {data['distribution']} serves (seed "
             f"{data['seed']}): hit {s['hit_rate']:.1%}, legal return {s['return_rate']:.1%}, "
             f"on target {s['target_rate']:.1%}, mean reward {s['mean_reward']:.3f}")
+    if s.get("double_bounce_faults"):
+        line += f", {s['double_bounce_faults']} hit after a double bounce (lost points)"
     if "returnable_rate" in s:
         of = s["return_rate_of_returnable"]
-        line += (f"; returnable (oracle analytical) {s['returnable_rate']:.1%} "
+        line += (f"; returnable (oracle strategies) {s['returnable_rate']:.1%} "
                  f"({s['returnable_serves']} serves), legal returns of those "
                  f"{s['returns_of_returnable']} = "
-                 + ("n/a" if of is None else f"{of:.1%}"))
+                 + ("n/a" if of is None else f"{of:.1%}")
+                 + f", legal returns outside the bound {s['returns_outside_ceiling']}")
     return line

@@ -5,9 +5,9 @@
 
 For every serve (episode i: ``episode_seed(S, i)``, the pools dealt by run seed S, as in
 ``tt-drake serve``): the full serve episode with camera perception. With ``--ceiling`` the run's
-serves are first played by the oracle teacher (``tt-drake serve --ceiling``'s machinery,
-:func:`tt_drake.diagrams.serve.oracle_returns`, on ``--workers`` processes) and only the
-returnable ones are reported (the issue's "held-out real-test serves the oracle can return").
+serves are first played by the oracle strategies (``tt-drake serve --ceiling``'s machinery,
+:func:`tt_drake.diagrams.serve.returnable_serves`, on ``--workers`` processes) and only the
+returnable ones are reported.
 
 **Analytical player** (issue #13, item 2: the players re-plan until the hitting stage is
 committed; the analytical player's corrections re-plan it until ``correct_lead`` = 80 ms before
@@ -364,11 +364,11 @@ def main(argv=None) -> int:
         return 2
     indices = list(range(args.serves))
     if args.ceiling and returnable is None:
-        from tt_drake.diagrams.serve import oracle_returns
+        from tt_drake.diagrams.serve import returnable_serves
 
-        ok = oracle_returns(scenario, args.serves, args.seed, progress=True,
-                            workers=args.workers)
-        returnable = [i for i, r in enumerate(ok) if r]
+        by = returnable_serves(scenario, args.serves, args.seed, progress=True,
+                               workers=args.workers)
+        returnable = [i for i, r in enumerate(by) if r is not None]
     if returnable is not None:
         indices = returnable
     ball_world = BallOnlyWorld(log_period=1.0 / 600.0)

@@ -51,7 +51,13 @@ from pydrake.common.value import AbstractValue
 from tt_drake import wam_params as wp
 from tt_drake.ball_model import BallModel, BallModelParams, CompliantBounceBallModel
 from tt_drake.constants import BALL, PLANES, TABLE, TARGET
-from tt_drake.hitting_time import HittingBand, choose_hitting_point
+from tt_drake.hitting_time import (
+    BounceCount,
+    HittingBand,
+    choose_hitting_point,
+    count_bounces,
+    last_robot_bounce,
+)
 from tt_drake.racket_law import (
     FLIGHT_TIMES,
     aim_candidates,
@@ -115,6 +121,8 @@ class PlannerConfig:
     band: HittingBand | None = HittingBand()
     # The return's candidate flight times to the target (s; racket_law.aim_candidates).
     flight_times: tuple[float, ...] = FLIGHT_TIMES
+    # The virtual hitting plane y (m; paper section III-A).
+    plane_y: float = PLANES.hitting_y
 
 
 #: How much larger than the table the planner's model takes it (m): the launcher serves only onto
@@ -128,7 +136,7 @@ TABLE_EDGE_PRIOR = 0.05
 #: (docs/performance.md, "Seventh pass") in a fifth of the steps, and a prediction is most of
 #: what the teacher computes per camera frame.
 PREDICTION_STEP = 0.01
-#: The step (s) of the test for a bounce behind the ball (``hitting_time.robot_half_bounces``,
+#: The step (s) of the test for a bounce behind the ball (``hitting_time.last_robot_bounce``,
 #: which looks at the path once a step): 2 ms, ~1 cm of the ball's travel, at the table's edges.
 BOUNCE_TEST_STEP = 2e-3
 
@@ -166,25 +174,44 @@ class StrokePlanner:
         return StagePlan([(AWAITING, Quintic.fit(t, 1.0, self.q_await, zero, zero,
                                                   self.q_await, zero, zero))])
 
-    def predict(self, state6, t_state: float, spin=None):
+    def predict(self, state6, t_state: float, spin=None, bounces_behind: int | None = None):
         """Stimulus (p_hit, v_hit, t_hit absolute), the ball's spin there and whether the
         prediction went through a bounce; or None.
 
         The ball model starts from the estimate (p, v) and the estimated ``spin`` (omega, rad/s;
         zero if None) and carries both through the bounces ahead (the bounce changes spin and
-        velocity together), so the spin at impact is the model's from the estimator's."""
+        velocity together), so the spin at impact is the model's from the estimator's. The
+        hitting point comes before the ball's second bounce on the robot's half (the rules):
+        ``bounces_behind`` is how many it has made so far (:meth:`count_bounces`; None: found
+        from the estimate alone, 0 or 1)."""
         state6 = np.asarray(state6, dtype=float)
-        if state6[4] >= 0.0 or state6[1] <= PLANES.hitting_y:
+        plane_y = self.config.plane_y
+        if state6[4] >= 0.0 or state6[1] <= plane_y:
             return None  # not coming toward the robot, or already past the plane
         w = np.zeros(3) if spin is None else np.asarray(spin, dtype=float)
         if self.config.band is None:
-            hit = self.model.predict_plane(np.r_[state6, w], PLANES.hitting_y)
+            hit = self.model.predict_plane(np.r_[state6, w], plane_y)
+            if bounces_behind is None:
+                bounces_behind = int(last_robot_bounce(self.model, np.r_[state6, w],
+                                                       step=BOUNCE_TEST_STEP) is not None)
+            ahead = 0 if hit is None else sum(b.position[1] < 0.0 for b in hit.bounces)
+            if bounces_behind + ahead >= 2:
+                return None  # the plane comes after the second bounce on the robot's half
         else:  # the plane when it serves, else a point along the path (tt_drake.hitting_time)
-            hit = choose_hitting_point(self.model, np.r_[state6, w], PLANES.hitting_y,
-                                       self.config.band, bounce_step=BOUNCE_TEST_STEP)
+            hit = choose_hitting_point(self.model, np.r_[state6, w], plane_y,
+                                       self.config.band, bounce_step=BOUNCE_TEST_STEP,
+                                       bounces_behind=bounces_behind)
         if hit is None:
             return None
         return hit.position, hit.velocity, t_state + hit.t, hit.spin, bool(hit.bounces)
+
+    def count_bounces(self, count: BounceCount, state6, t_state: float,
+                      spin=None) -> BounceCount:
+        """``count`` after the estimate (p, v) at ``t_state`` and its ``spin``
+        (:func:`tt_drake.hitting_time.count_bounces` on the planner's model)."""
+        w = np.zeros(3) if spin is None else np.asarray(spin, dtype=float)
+        return count_bounces(self.model, count, np.r_[np.asarray(state6, dtype=float), w],
+                             t_state, step=BOUNCE_TEST_STEP)
 
     def aims(self, p_hit, v_hit, spin, previous: Stroke | None) -> list:
         """The outgoing velocities to try, best first, as (v_out, flight time): every candidate
@@ -308,14 +335,15 @@ class StrokePlanner:
 
 
 class _PlayerState(Immutable):
-    """``seen``: the time of the estimate last acted on (the player waits for a newer one)."""
+    """``seen``: the time of the estimate last acted on (the player waits for a newer one);
+    ``bounces``: the incoming ball's bounces on the robot's half seen so far."""
 
-    __slots__ = ("plan", "stroke", "committed", "seen")
+    __slots__ = ("plan", "stroke", "committed", "seen", "bounces")
 
     def __init__(self, plan: StagePlan, stroke: Stroke | None = None, committed: bool = False,
-                 seen: float = -math.inf):
+                 seen: float = -math.inf, bounces: BounceCount | None = None):
         self.plan, self.stroke, self.committed = plan, stroke, committed
-        self.seen = seen
+        self.seen, self.bounces = seen, bounces or BounceCount()
 
 
 class AnalyticalPlayer(StagePlanPlayer):
@@ -359,7 +387,7 @@ class AnalyticalPlayer(StagePlanPlayer):
         if old.committed:
             if self.play_again and self._ball_gone(context, old, now):
                 state.get_mutable_abstract_state(self._state_index).set_value(
-                    _PlayerState(remaining(old.plan, now), None, False, old.seen))
+                    _PlayerState(remaining(old.plan, now), None, False, old.seen, old.bounces))
                 return
             if self.corrections:
                 self._correct(context, state, old, now)
@@ -367,13 +395,13 @@ class AnalyticalPlayer(StagePlanPlayer):
         plan = old.plan
         hit_segment = next((seg for stage, seg in plan.segments if stage == HITTING), None)
         if hit_segment is not None and now >= hit_segment.t0:
-            new = _PlayerState(plan, old.stroke, committed=True)
+            new = _PlayerState(plan, old.stroke, committed=True, bounces=old.bounces)
             state.get_mutable_abstract_state(self._state_index).set_value(new)
             return
         fresh = self._fresh_prediction(context, state, old, old.committed)
         if fresh is None:
             return
-        seen, (p_hit, v_hit, t_hit, spin, _) = fresh
+        seen, bounces, (p_hit, v_hit, t_hit, spin, _) = fresh
         if t_hit - now < 0.05:
             return
         moved = self.planner.needs_replan(old.stroke, p_hit, t_hit, spin)
@@ -387,7 +415,7 @@ class AnalyticalPlayer(StagePlanPlayer):
             return
         new_plan = self.planner.plan(now, plan, stroke)
         state.get_mutable_abstract_state(self._state_index).set_value(
-            _PlayerState(plan if new_plan is None else new_plan, stroke, False, seen))
+            _PlayerState(plan if new_plan is None else new_plan, stroke, False, seen, bounces))
 
     def _ball_gone(self, context, old: _PlayerState, now: float) -> bool:
         """After the planned hit, the estimator tracks a ball flying away from the robot."""
@@ -398,20 +426,25 @@ class AnalyticalPlayer(StagePlanPlayer):
 
     def _fresh_prediction(self, context, state, old: _PlayerState, committed: bool,
                           predict: bool = True):
-        """(seen, the planner's prediction) from an estimate newer than the last one acted on,
-        which the state then records as seen; None if there is none or it predicts no hit (or
-        ``predict`` is off: the estimate is only recorded as seen)."""
+        """(seen, the bounces counted, the planner's prediction) from an estimate newer than
+        the last one acted on, which the state then records as seen (with the bounces counted
+        from it); None if there is none or it predicts no hit (or ``predict`` is off: the
+        estimate is only recorded as seen)."""
         status = self._status.Eval(context)
         seen = float(status[1])
         if status[0] < 0.5 or not seen > old.seen:
             return None
-        state.get_mutable_abstract_state(self._state_index).set_value(
-            _PlayerState(old.plan, old.stroke, committed, seen))
         if not predict:
+            state.get_mutable_abstract_state(self._state_index).set_value(
+                _PlayerState(old.plan, old.stroke, committed, seen, old.bounces))
             return None
+        estimate = self._estimate.Eval(context)
         spin = self._spin.Eval(context) if self._spin.HasValue(context) else None
-        prediction = self.planner.predict(self._estimate.Eval(context), seen, spin)
-        return None if prediction is None else (seen, prediction)
+        bounces = self.planner.count_bounces(old.bounces, estimate, seen, spin)
+        state.get_mutable_abstract_state(self._state_index).set_value(
+            _PlayerState(old.plan, old.stroke, committed, seen, bounces))
+        prediction = self.planner.predict(estimate, seen, spin, bounces.count)
+        return None if prediction is None else (seen, bounces, prediction)
 
     def _correct(self, context, state, old: _PlayerState, now: float) -> None:
         """During the hitting stage: re-plan its rest on a prediction that moved more than the
@@ -426,7 +459,7 @@ class AnalyticalPlayer(StagePlanPlayer):
                                        predict=before_cutoff or self.predict_past_cutoff)
         if fresh is None:
             return
-        seen, (p_hit, v_hit, t_hit, spin, _) = fresh
+        seen, bounces, (p_hit, v_hit, t_hit, spin, _) = fresh
         if (not before_cutoff or t_hit - now < cfg.correct_lead
                 or not self.planner.needs_correction(old.stroke, p_hit, t_hit, spin)):
             return
@@ -436,4 +469,4 @@ class AnalyticalPlayer(StagePlanPlayer):
         plan = self.planner.correct(now, old.plan, stroke)
         if plan is not None:
             state.get_mutable_abstract_state(self._state_index).set_value(
-                _PlayerState(plan, stroke, True, seen))
+                _PlayerState(plan, stroke, True, seen, bounces))

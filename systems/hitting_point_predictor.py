@@ -37,7 +37,10 @@ Ports:
   the episode's clock).
 
 Discrete state: ``[n_collected, last_t, observations (4 x 6), p_hit (3), v_hit (3), t_hit,
-valid, final, spin_hit (3)]``; outputs copy slices of it.
+valid, final, spin_hit (3), first_bounce, bounces]``; outputs copy slices of it. The last two
+count the ball's bounces on the robot's half as the refreshed predictions see them
+(:class:`tt_drake.hitting_time.BounceCount`, -1: none yet): after the second no prediction is
+refreshed (the rules end the hitting window there).
 """
 
 import math
@@ -47,11 +50,13 @@ from pydrake.systems.framework import EventStatus, LeafSystem
 
 from tt_drake.constants import PLANES
 from tt_drake.hitting_point import N_OBSERVATIONS, HittingPointGPR, PhysicalPredictor
-from tt_drake.hitting_time import choose_hitting_point
+from tt_drake.hitting_time import BounceCount, choose_hitting_point, count_bounces
 from tt_drake.wam_params import PLANNING_RATE
 
 _OBS = 2
 _OUT = 2 + 6 * N_OBSERVATIONS
+#: The state's "no bounce seen yet" (the refresh's bounce count: first bounce time, count).
+_NO_BOUNCE = -1.0
 # A tick that finds no new estimate changes nothing: "did nothing" tells the simulator not to
 # write the unchanged state back, so the outputs' caches (and everything reading them) stay valid.
 _NOTHING = EventStatus.DidNothing()
@@ -84,8 +89,9 @@ class HittingPointPredictor(LeafSystem):
         self._state = self.DeclareVectorInputPort("state", 6)
         self._spin = self.DeclareVectorInputPort("spin", 3)
         self._status = self.DeclareVectorInputPort("status", 2)
-        initial = np.zeros(_OUT + 12)
+        initial = np.zeros(_OUT + 14)
         initial[1] = -math.inf
+        initial[_OUT + 12] = _NO_BOUNCE
         self._xd = self.DeclareDiscreteState(initial)
         self.DeclarePeriodicDiscreteUpdateEvent(1.0 / rate, 0.0, self._update)
         deps = {self.xd_ticket()}
@@ -133,16 +139,18 @@ class HittingPointPredictor(LeafSystem):
     def _spin_value(self, context) -> np.ndarray | None:
         return self._spin.Eval(context) if self._spin.HasValue(context) else None
 
-    def _refreshed(self, s, spin, x, t: float) -> np.ndarray | None:
+    def _refreshed(self, s, spin, x, t: float, bounces: int) -> np.ndarray | None:
         """The physical prediction from an estimate after the robot-side bounce, if it moved
-        more than ``refresh_tolerance`` from the published one; else None."""
-        if s[4] >= 0.0 or s[1] >= self.observation_y:
+        more than ``refresh_tolerance`` from the published one; else None. ``bounces``: the
+        ball's bounces on the robot's half so far; after the second there is none (the
+        rules)."""
+        if s[4] >= 0.0 or s[1] >= self.observation_y or bounces >= 2:
             return None
         if self.band is None:
             hit = self.refresh.model.predict_plane(_with_spin(s, spin), self.refresh.plane_y)
         else:
             hit = choose_hitting_point(self.refresh.model, _with_spin(s, spin),
-                                       self.refresh.plane_y, self.band)
+                                       self.refresh.plane_y, self.band, bounces_behind=bounces)
         if hit is None or hit.bounces:
             return None  # the robot-side bounce is still ahead
         pred = np.concatenate([hit.position, hit.velocity, [hit.t], hit.spin])
@@ -159,6 +167,7 @@ class HittingPointPredictor(LeafSystem):
         if self.play_again and self._state.Eval(context)[4] > 0.0 and (x[0] > 0 or x[_OUT + 7]):
             new = np.zeros_like(x)
             new[1] = t
+            new[_OUT + 12] = _NO_BOUNCE
             discrete_state.set_value(self._xd, new)
             return
         if x[_OUT + 8] == 1.0:
@@ -166,7 +175,14 @@ class HittingPointPredictor(LeafSystem):
                 return _NOTHING
             new = x.copy()
             new[1] = t
-            pred = self._refreshed(self._state.Eval(context), self._spin_value(context), x, t)
+            s, spin = self._state.Eval(context), self._spin_value(context)
+            first = x[_OUT + 12]
+            count = count_bounces(self.refresh.model,
+                                  BounceCount(None if first == _NO_BOUNCE else first,
+                                              int(x[_OUT + 13])), _with_spin(s, spin), t)
+            new[_OUT + 12] = _NO_BOUNCE if count.first is None else count.first
+            new[_OUT + 13] = count.count
+            pred = self._refreshed(s, spin, x, t, count.count)
             if pred is not None:
                 new[_OUT:_OUT + 6] = pred[:6]
                 new[_OUT + 6] = t + pred[6]

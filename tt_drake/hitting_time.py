@@ -9,9 +9,10 @@ otherwise takes the last point of the path inside a reachable band (docs/analyti
 
 1. The *hittable window* of the predicted path (ball model, spin included) starts at the ball's
    bounce on the robot's half (at once if it has bounced there already:
-   :func:`robot_half_bounces`) and ends at its next bounce, where it falls to :data:`FALL_Z`,
+   :func:`last_robot_bounce`) and ends at its next bounce, where it falls to :data:`FALL_Z`,
    or at the hitting plane. The rules end it at the second bounce on the robot's half: a ball
-   that has bounced there twice already has no hitting point (the player lets it go).
+   that has bounced there twice already (as the player counted, :class:`BounceCount`) has no
+   hitting point, and the player lets it go.
 2. If the path crosses the plane inside the window at least ``plane_z_min`` high, the crossing
    is the hitting point (every ``default`` serve: the paper's rule, unchanged).
 3. Otherwise the hitting point is the *last* point of the window at least ``z_min`` high (the
@@ -26,7 +27,6 @@ down to z = 0.5 m at y <= -1.6 m and z >= 0.7 m from y = -1.5 m, and none over t
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,83 +47,72 @@ class HittingBand:
     y_max: float = TABLE.robot_edge_y - 0.18  # m: and this far behind the robot's table edge
 
 
-def unbounce(model: BallModel, vel, w, iterations: int = 20) -> tuple[tuple, tuple]:
-    """The velocity and spin just before a table bounce that leaves the ball with (``vel``,
-    ``w``): the inverse of ``model.bounce``.
-
-    The normal part is exact: the incoming speed v_n solves v_z' = e(v_n) v_n (fixed point
-    v_n <- v_z' / e(v_n); e varies slowly with v_n). The bounce keeps the spin about the normal,
-    so the unknowns are x = (v_x, v_y, omega_x, omega_y), solving bounce(x) = x'. A ball that
-    leaves rolling (no slip at the contact) has many pre-images (every incoming slip below the
-    rolling limit): x' itself, the least change, is taken when bounce(x') = x'. Otherwise the
-    bounce was sliding: it changed x by an impulse of fixed size (mu J_n) against the slip,
-    whose direction it kept, so x' minus the change of a ball sliding the same way (x' with
-    10 m/s more slip) is close, and Newton's method on bounce(x) = x' (forward-difference
-    Jacobian) finishes it."""
-    r = model.params.radius
-    vz_out = float(vel[2])
-    vn = vz_out
-    for _ in range(iterations):
-        vn = vz_out / model.table_restitution(vn)
-    target = np.array([vel[0], vel[1], w[0], w[1]], dtype=float)
-    wz = float(w[2])
-
-    def residual(x):
-        out_v, out_w = model.bounce((x[0], x[1], -vn), (x[2], x[3], wz))
-        return np.array([out_v[0], out_v[1], out_w[0], out_w[1]]) - target
-
-    def result(x):
-        return (float(x[0]), float(x[1]), -vn), (float(x[2]), float(x[3]), wz)
-
-    if np.abs(residual(target)).max() < 1e-12:
-        return result(target)
-    ux, uy = vel[0] - r * w[1], vel[1] + r * w[0]
-    slip = math.hypot(ux, uy) or 1.0
-    far = target + np.array([10.0 * ux / slip, 10.0 * uy / slip, 0.0, 0.0])
-    x = target - residual(far) + (far - target)  # x' - (bounce(far) - far)
-    for _ in range(iterations):
-        f = residual(x)
-        if np.abs(f).max() < 1e-12:
-            break
-        h = 1e-7
-        jac = np.column_stack([(residual(x + h * e) - f) / h for e in np.eye(4)])
-        try:
-            x = x - np.linalg.solve(jac, f)
-        except np.linalg.LinAlgError:
-            break
-    return result(x)
-
-
-def robot_half_bounces(model: BallModel, state, max_time: float = 1.0,
-                       step: float | None = None) -> int:
-    """How many times a ball on the robot's half (y < 0) has bounced there since it crossed the
-    net's plane y = 0: 0, 1 or 2 (two or more; the rules' lost point). The flight is followed
-    back in time (the model's flight step with a negative step, ``step`` long: default the
-    model's ``dt``); where it meets the table (centre at the contact height, over the table),
-    the bounce is undone (:func:`unbounce`) and the flight followed on back, until the net's
-    plane. The test looks at the path every ``step``, so near the table's edges and the net it
-    is as fine as the ball's travel in one step."""
+def last_robot_bounce(model: BallModel, state, max_time: float = 1.0,
+                      step: float | None = None) -> float | None:
+    """How long ago (s) a ball on the robot's half (y < 0) moving toward the robot last
+    bounced there, or None if it has not since it crossed the net's plane y = 0: the flight
+    followed back in time (the model's flight step with a negative step, ``step`` long: default
+    the model's ``dt``) meets the table before it gets back to the net's plane. The test looks
+    at the path every ``step``, so near the table's edges and the net it is as fine as the
+    ball's travel in one step. Only the last bounce is found: the flight before it would need
+    the bounce undone, which the estimated spin is not accurate enough for (a wrong spin moves
+    the undone velocity by up to mu J_n); a player counts the bounces it has seen with
+    :class:`BounceCount` instead."""
     s = np.asarray(state, dtype=float).reshape(-1)
     if s[1] >= 0.0:
-        return 0
+        return None
     p = model.params
     contact_z = p.table_z + p.radius
     pos, vel = tuple(s[0:3].tolist()), tuple(s[3:6].tolist())
     w = tuple(s[6:9].tolist()) if s.size >= 9 else (0.0, 0.0, 0.0)
     dt = model.dt if step is None else step
-    t, bounces = 0.0, 0
+    t = 0.0
     while t < max_time:
         pos, vel = model.flight_step(pos, vel, w, -dt)
         t += dt
         if pos[1] >= 0.0:
-            return bounces
-        if pos[2] <= contact_z and vel[2] > 0.0 and model.over_table(pos[0], pos[1]):
-            bounces += 1
-            if bounces == 2:
-                return 2
-            vel, w = unbounce(model, vel, w)
-            pos = (pos[0], pos[1], contact_z)
-    return bounces
+            return None
+        if pos[2] <= contact_z and model.over_table(pos[0], pos[1]):
+            return t
+    return None
+
+
+@dataclass(frozen=True)
+class BounceCount:
+    """The bounces a player has seen the incoming ball make on its half: ``first``, the time of
+    the first (simulation clock, s; None before it) and ``count`` (0, 1 or 2: two or more, the
+    rules' lost point). Fed the time of the last bounce behind each new estimate
+    (:func:`last_robot_bounce`), it counts a bounce more than ``SAME_BOUNCE`` after the first
+    as the second: two bounces on one half are at least a flight apart (~0.1 s), while one
+    bounce seen from successive estimates moves by the estimates' error (a few ms)."""
+
+    first: float | None = None
+    count: int = 0
+
+    SAME_BOUNCE = 0.03  # s
+
+    def seen(self, bounce_time: float | None) -> BounceCount:
+        """This count after an estimate whose last bounce behind was at ``bounce_time``
+        (None: none since the net's plane)."""
+        if bounce_time is None or self.count >= 2:
+            return self
+        if self.first is None:
+            return BounceCount(bounce_time, 1)
+        if bounce_time > self.first + self.SAME_BOUNCE:
+            return BounceCount(self.first, 2)
+        return self
+
+
+def count_bounces(model: BallModel, count: BounceCount, state, t_state: float,
+                  step: float | None = None) -> BounceCount:
+    """``count`` after an estimate ``state`` (p, v and optionally omega) taken at ``t_state``:
+    the last bounce behind the ball on the robot's half (:func:`last_robot_bounce`, ``step``)
+    counted; a ball on the opponent's half (y >= 0) starts a new count (a rally's next ball)."""
+    s = np.asarray(state, dtype=float).reshape(-1)
+    if s[1] >= 0.0:
+        return BounceCount()
+    ago = last_robot_bounce(model, s, step=step)
+    return count.seen(None if ago is None else t_state - ago)
 
 
 def _fall_through(t0, z0, vz0, t1, z1, vz1, level: float) -> float:
@@ -147,7 +136,8 @@ def _fall_through(t0, z0, vz0, t1, z1, vz1, level: float) -> float:
 
 def choose_hitting_point(model: BallModel, state, plane_y: float = PLANES.hitting_y,
                          band: HittingBand | None = None, max_time: float = 3.0,
-                         bounce_step: float | None = None) -> PlaneCrossing | None:
+                         bounce_step: float | None = None,
+                         bounces_behind: int | None = None) -> PlaneCrossing | None:
     """The ball's state at the chosen hitting point (time relative to ``state``, the spin there
     and the bounces on the way), by the rule of the module docstring; or None.
 
@@ -155,7 +145,9 @@ def choose_hitting_point(model: BallModel, state, plane_y: float = PLANES.hittin
     through ``z_min`` for the last time in the window (located on the cubic Hermite interpolant
     of the model's steps, then integrated to exactly), so successive estimates of one flight
     give the same point to the model's accuracy, not to a step. ``bounce_step``: the step of
-    :func:`robot_half_bounces`' test (default the model's ``dt``)."""
+    :func:`last_robot_bounce`'s test (default the model's ``dt``). ``bounces_behind``: the
+    bounces the ball has made on the robot's half so far, as the caller counted them
+    (:class:`BounceCount`); None: 1 if :func:`last_robot_bounce` finds one, else 0."""
     band = band or HittingBand()
     s = np.asarray(state, dtype=float).reshape(-1)
     if s.size == 6:
@@ -171,10 +163,11 @@ def choose_hitting_point(model: BallModel, state, plane_y: float = PLANES.hittin
     if end is None:
         return None
     robot = [b.t for b in end.bounces if b.position[1] < 0.0]
-    behind = robot_half_bounces(model, s, step=bounce_step)
-    if behind >= 2:
+    if bounces_behind is None:
+        bounces_behind = int(last_robot_bounce(model, s, step=bounce_step) is not None)
+    if bounces_behind >= 2:
         return None  # the point is lost: the ball is out of play (the rules, Law 2.10.1.3)
-    if behind == 1:
+    if bounces_behind == 1:
         start, stop_t = 0.0, (robot[0] if robot else end.t)
     elif robot:
         start, stop_t = robot[0], (robot[1] if len(robot) > 1 else end.t)

@@ -36,9 +36,17 @@ EPISODE_FIELDS: dict = {
     "wall_time": _scalar("wall-clock time the episode took to simulate", "s"),
     "outcome": _scalar("the referee's verdict: returned, missed, fault, ..."),
     "hit": _scalar("the racket touched the ball"),
-    "returned": _scalar("a legal return: hit, and first bounce on the opponent's half"),
+    "returned": _scalar("a legal return (docs/rules.md): hit after at most one bounce on the "
+                        "robot's half, then first bounce on the opponent's half (touching the "
+                        "net on the way or not)"),
+    "net_touch": _scalar("the return touched the net assembly"),
     "on_target": _scalar("a legal return landing within referee.target_radius of the target"),
-    "faults": _scalar("the referee's fault labels (empty for a clean episode)"),
+    "faults": _scalar("the referee's fault labels (empty for a clean episode): double_bounce, "
+                      "net, own_half, out, double_hit, no_landing, robot_table"),
+    "returnable": _scalar("with --ceiling: the bound calls this serve returnable (one of its "
+                          "oracle strategies returned it legally)"),
+    "returnable_by": _scalar("with --ceiling: the first oracle strategy that returned it, or "
+                             "null"),
     "landing": _vector("where the returned ball first touched the table (world frame)",
                        ["x", "y"], ["m", "m"]),
     "target_distance": _scalar("distance of the landing point from the target", "m"),
@@ -83,6 +91,16 @@ SUMMARY_FIELDS: dict = {
     "episodes_with_saturation": _scalar("episodes with a torque at its effort limit"),
     "robot_table_contacts": _scalar("episodes in which the robot touched the table"),
     "fallback_strokes": _scalar("learned strokes carried by the teacher's quintics"),
+    "double_bounce_faults": _scalar("strokes that hit the ball after its second bounce on the "
+                                    "robot's half (a lost point)"),
+    "returnable_rate": _scalar("with --ceiling: share of serves the returnable bound calls "
+                               "returnable (docs/rules.md)"),
+    "returnable_serves": _scalar("with --ceiling: their number"),
+    "returns_of_returnable": _scalar("with --ceiling: the player's legal returns of them"),
+    "return_rate_of_returnable": _scalar("with --ceiling: returns_of_returnable / "
+                                         "returnable_serves (null if none is returnable)"),
+    "returns_outside_ceiling": _scalar("with --ceiling: the player's legal returns of serves the "
+                                       "bound calls unreturnable (0 unless the bound is wrong)"),
 }
 
 

@@ -6,7 +6,7 @@
 
 Plays ``--serves`` analytical serves (recorded, as the teacher stage plays them) and keeps every
 (estimate, time, spin) the player predicted from; then predicts from each again
-(``StrokePlanner.predict``: the hitting point along the path, ``robot_half_bounces`` included)
+(``StrokePlanner.predict``: the hitting point along the path, ``last_robot_bounce`` included)
 with the planner's model at 2 ms and at each ``--steps``, the test for a bounce behind the ball
 at that step or at the player's 2 ms (``BOUNCE_TEST_STEP``), the variants alternating prediction
 by prediction; prints the CPU time per prediction, how many predictions differ in having a

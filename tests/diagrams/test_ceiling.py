@@ -1,11 +1,20 @@
-"""``serve --ceiling``: the returnable serves are those the oracle teacher returns, and the
-player's rate among them is counted over exactly those serves."""
+"""The returnable bound (``serve --ceiling``): a serve is returnable when one of the oracle
+strategies returns it legally; the strategies are tried in order on what is left, and every
+summary counts the player's returns inside and outside the bound."""
 
 import pytest
 
 from tt_drake.diagrams import serve as serve_module
-from tt_drake.diagrams.episodes import EpisodeResult
+from tt_drake.diagrams.ceiling import (
+    STRATEGIES,
+    OracleStrategy,
+    ceiling_summary,
+    returnable_by,
+    strategy_player,
+)
+from tt_drake.diagrams.episodes import EpisodeResult, ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import Scenario
+from tt_drake.hitting_time import HittingBand
 from tt_drake.referee_rules import Outcome
 
 
@@ -14,15 +23,50 @@ def _result(seed, returned):
     return EpisodeResult(seed, [0.0] * 9, [0.0] * 7, 1.0, outcome, 0.1)
 
 
-def test_ceiling_counts_the_players_returns_among_the_oracles(monkeypatch):
-    player = [True, False, True, False, True]
-    oracle = [True, True, False, False, True]
-    asked = {}
+def test_strategies_are_tried_in_order_on_the_serves_left():
+    a, b, c = (OracleStrategy(n) for n in "abc")
+    returns = {"a": {0, 3}, "b": {1, 3, 4}, "c": {4, 5}}
+    asked = []
 
-    def fake_episodes(scenario, player_name, serves, seed, progress, workers):
-        asked.update(perception=scenario.perception, player=player_name, serves=serves,
-                     seed=seed, run_seed=scenario.launcher.run_seed)
-        return [_result(i, r) for i, r in enumerate(oracle)]
+    def play(strategy, indices):
+        asked.append((strategy.name, list(indices)))
+        return [i in returns[strategy.name] for i in indices]
+
+    found = returnable_by(play, 6, (a, b, c))
+    assert found == ["a", "b", None, "a", "b", "c"]
+    # each strategy plays only the serves no earlier one returned
+    assert asked == [("a", [0, 1, 2, 3, 4, 5]), ("b", [1, 2, 4, 5]), ("c", [2, 5])]
+    # nothing left: no further strategy is played
+    asked.clear()
+    assert returnable_by(play, 2, (OracleStrategy("b"), a, c)) == ["a", "b"]
+    assert [name for name, _ in asked] == ["b", "a"]
+    with pytest.raises(ValueError, match="1 results for 2 serves"):
+        returnable_by(lambda s, i: [True], 2, (a,))
+
+
+def test_ceiling_summary_counts_returns_inside_and_outside_the_bound():
+    returned = [True, False, True, True, False]
+    returnable = ["teacher", "long", None, "teacher", None]
+    s = ceiling_summary(returned, returnable)
+    assert s["returnable_serves"] == 3 and s["returnable_rate"] == pytest.approx(3 / 5)
+    assert s["returns_of_returnable"] == 2
+    assert s["return_rate_of_returnable"] == pytest.approx(2 / 3)
+    assert s["returns_outside_ceiling"] == 1  # serve 2: the bound is wrong for this player
+    assert ceiling_summary([False], [None])["return_rate_of_returnable"] is None
+    with pytest.raises(ValueError, match="2 episodes but 1 ceiling"):
+        ceiling_summary([True, False], [None])
+
+
+def test_serve_ceiling_plays_the_same_serves_with_the_oracle_strategies(monkeypatch):
+    player = [True, False, True, False, True]
+    by_strategy = {"teacher": {0, 1}, "short-left": {4}}
+    calls = []
+
+    def fake_episodes(scenario, player_fn, seeds, progress, workers, label=None):
+        calls.append((label, scenario.perception, scenario.launcher.run_seed, list(seeds)))
+        name = label.split()[-1]
+        index = {episode_seed(9, i): i for i in range(5)}
+        return [_result(s, index[s] in by_strategy.get(name, set())) for s in seeds]
 
     monkeypatch.setattr(serve_module, "_episodes", fake_episodes)
     scenario = Scenario()
@@ -30,33 +74,52 @@ def test_ceiling_counts_the_players_returns_among_the_oracles(monkeypatch):
     results = [_result(i, r) for i, r in enumerate(player)]
     data = serve_module._report(scenario, "momp", 9, results)
     serve_module.add_ceiling(data, scenario, "momp", 5, 9, results, False, 1)
-    # The same serves (seed, run seed) by the oracle analytical player; the caller's scenario
-    # is left as it was.
-    assert asked == dict(perception="oracle", player="analytical", serves=5, seed=9, run_seed=9)
+    # the same serves (seed, run seed), the oracle's perception; the caller's scenario unchanged
+    assert calls[0] == ("oracle teacher", "oracle", 9, [episode_seed(9, i) for i in range(5)])
+    assert calls[1][3] == [episode_seed(9, i) for i in (2, 3, 4)]
+    # serves 2 and 3 stay unreturned: every later strategy tries them, and only them
+    assert len(calls) == len(STRATEGIES)
+    assert all(c[3] == [episode_seed(9, i) for i in (2, 3)] for c in calls[2:])
     assert scenario.perception == "camera"
     s = data["summary"]
-    assert s["returnable_rate"] == pytest.approx(3 / 5) and s["returnable_serves"] == 3
-    assert s["returns_of_returnable"] == 2  # serves 0 and 4; serve 2 was not returnable
-    assert s["return_rate_of_returnable"] == pytest.approx(2 / 3)
-    assert [e["returnable"] for e in data["episodes"]] == oracle
-    assert "returnable (oracle analytical) 60.0% (3 serves)" in serve_module.format_summary(data)
+    assert s["returnable_serves"] == 3 and s["returnable_rate"] == pytest.approx(3 / 5)
+    assert s["returns_of_returnable"] == 2  # serves 0 and 4
+    assert s["returns_outside_ceiling"] == 1  # serve 2
+    assert [e["returnable_by"] for e in data["episodes"]] == [
+        "teacher", "teacher", None, None, "short-left"]
+    line = serve_module.format_summary(data)
+    assert "legal return 60.0%" in line and "legal returns outside the bound 1" in line
 
 
-def test_ceiling_of_nothing_returnable_is_none_and_the_oracle_run_is_its_own_ceiling(
-        monkeypatch):
-    monkeypatch.setattr(serve_module, "_episodes", lambda *a: [_result(0, False)])
-    results = [_result(0, True)]
-    data = serve_module._report(Scenario(), "analytical", 1, results)
-    serve_module.add_ceiling(data, Scenario(), "analytical", 1, 1, results, False, 1)
-    assert data["summary"]["return_rate_of_returnable"] is None
-    assert "n/a" in serve_module.format_summary(data)
+def test_a_strategy_plays_the_analytical_player_with_its_settings():
+    strategy = OracleStrategy("x", target=(0.4, 1.0), band=HittingBand(z_min=0.7),
+                              plane_y=-1.7)
+    scenario = Scenario(perception="oracle")
+    diagram = ServeDiagram(scenario, strategy_player(strategy))
+    config = diagram.player.planner.config
+    assert (config.target_x, config.target_y, config.band, config.plane_y) == (
+        0.4, 1.0, HittingBand(z_min=0.7), -1.7)
+    teacher = ServeDiagram(scenario, strategy_player(STRATEGIES[0])).player.planner.config
+    assert (teacher.target_x, teacher.target_y) == (scenario.referee.target_x,
+                                                    scenario.referee.target_y)
+    assert len({s.name for s in STRATEGIES}) == len(STRATEGIES)
 
-    def no_second_run(*_args):
-        raise AssertionError("the oracle teacher's own run needs no second run")
 
-    monkeypatch.setattr(serve_module, "_episodes", no_second_run)
-    oracle = Scenario(perception="oracle")
-    data = serve_module._report(oracle, "analytical", 1, results)
-    serve_module.add_ceiling(data, oracle, "analytical", 1, 1, results, False, 1)
-    assert data["summary"]["returnable_rate"] == 1.0
-    assert data["summary"]["return_rate_of_returnable"] == 1.0
+def test_ceiling_from_reads_an_earlier_runs_bound_of_the_same_serves(tmp_path):
+    """``serve --ceiling-from``: the bound of an earlier --ceiling run is reused only for the
+    same serves; anything else is refused with one line."""
+    import json
+
+    results = [_result(i, r) for i, r in enumerate([True, False, True])]
+    data = serve_module._report(Scenario(), "momp", 9, results)
+    serve_module.add_returnable(data, results, ["teacher", None, "long"])
+    path = tmp_path / "earlier.json"
+    path.write_text(json.dumps(data))
+    again = serve_module._report(Scenario(), "crkr", 9, results)
+    assert serve_module.read_returnable(str(path), again) == ["teacher", None, "long"]
+    other = serve_module._report(Scenario(), "crkr", 9, [_result(i + 1, True) for i in range(3)])
+    with pytest.raises(serve_module.CeilingFileError, match="another run's serves"):
+        serve_module.read_returnable(str(path), other)
+    path.write_text(json.dumps({"episodes": [{"seed": 1}]}))
+    with pytest.raises(serve_module.CeilingFileError, match="not a serve --ceiling --json"):
+        serve_module.read_returnable(str(path), None)

@@ -12,7 +12,7 @@ from gymnasium.utils.env_checker import check_env
 import tt_drake.gym  # noqa: F401
 from tt_drake import wam_params as wp
 from tt_drake.constants import PLANES
-from tt_drake.diagrams.episodes import ServeDiagram, _analytical_player
+from tt_drake.diagrams.episodes import ServeDiagram, add_analytical_player
 from tt_drake.diagrams.gym_envs import ReturnBallEnv, ReturnBallStepEnv
 from tt_drake.diagrams.scenario import ScenarioError, load_scenario
 from tt_drake.systems.analytical_player import AnalyticalPlayer
@@ -57,7 +57,7 @@ def test_episodic_zero_action_is_the_analytical_players_return(episodic):
     # The teacher without corrections after commit (the agent's stroke is final).
     no_corrections = functools.partial(AnalyticalPlayer, corrections=False)
     teacher = ServeDiagram(load_scenario(), functools.partial(
-        _analytical_player, player_type=no_corrections)).run(SERVE).outcome
+        add_analytical_player, player_type=no_corrections)).run(SERVE).outcome
     assert terminated and not truncated
     assert reward == teacher.reward and info["outcome"] == teacher.as_dict()
     assert info["is_success"] == teacher.on_target

@@ -279,21 +279,26 @@ def test_a_hard_run_is_kept_apart_from_a_paper_run_and_a_bad_protocol_is_refused
 def test_ceiling_rates_count_the_primitives_returns_among_the_returnable_serves():
     episodes = [_episode(True, 1.0, [0], [1.0]), _episode(True, 0.9, [0], [1.0], fallback=True),
                 _episode(True, 0.8, [0], [1.0]), _episode(False, 0.0, [0], [1.0])]
-    oracle = [{"returned": True, "on_target": True, "reward": 0.9},
-              {"returned": True, "on_target": False, "reward": 0.5},
-              {"returned": False, "on_target": False, "reward": 0.2},
-              {"returned": True, "on_target": True, "reward": 1.0}]
-    r = rp.ceiling_rates(episodes, oracle)
-    # serve 2 is returned but not returnable by the oracle: it is outside the ceiling's count;
-    # on target: the primitives carried 2 (serve 1's was a fallback), the oracle 2; the mean
-    # reward credits the fallback stroke 0: (1 + 0 + 0.8 + 0) / 4 against the oracle's 2.6 / 4
+    teacher = [{"returned": True, "on_target": True, "reward": 0.9},
+               {"returned": True, "on_target": False, "reward": 0.5},
+               {"returned": False, "on_target": False, "reward": 0.2},
+               {"returned": True, "on_target": True, "reward": 1.0}]
+    returnable = ["teacher", "teacher", None, "teacher"]
+    r = rp.ceiling_rates(episodes, returnable, teacher)
+    # serve 2 is returned but outside the bound: counted as such, not in the ratio; on target:
+    # the primitives carried 2 (serve 1's was a fallback), the oracle teacher 2; the mean
+    # reward credits the fallback stroke 0: (1 + 0 + 0.8 + 0) / 4 against the teacher's 2.6 / 4
     assert r == {"returnable_serves": 3, "returnable_rate": 0.75, "returns_of_returnable": 1,
-                 "return_rate_of_returnable": pytest.approx(1 / 3), "oracle_target_rate": 0.5,
+                 "return_rate_of_returnable": pytest.approx(1 / 3),
+                 "returns_outside_ceiling": 1, "oracle_target_rate": 0.5,
                  "target_of_ceiling": 1.0, "momp_mean_reward": pytest.approx(0.45),
                  "oracle_mean_reward": pytest.approx(0.65),
                  "reward_of_ceiling": pytest.approx(0.45 / 0.65)}
+    # a fallback stroke's legal return outside the bound proves it wrong too
+    r = rp.ceiling_rates(episodes, [None, None, "long", "teacher"], teacher)
+    assert r["returns_outside_ceiling"] == 2 and r["returns_of_returnable"] == 1
     nothing = [{"returned": False, "on_target": False, "reward": 0.0}] * 4
-    r = rp.ceiling_rates(episodes, nothing)
+    r = rp.ceiling_rates(episodes, [None] * 4, nothing)
     assert r["return_rate_of_returnable"] is None and r["target_of_ceiling"] is None
     assert r["reward_of_ceiling"] is None
 
@@ -310,7 +315,7 @@ def test_hard_report_rows_give_the_ceiling_and_the_early_strokes():
     r = {"return_rate": 0.5, "target_rate": 0.3, "momp_return_rate": 0.4,
          "momp_target_rate": 0.25, "serves": 10, "seed": 7, "distribution": "real-test",
          "returnable_serves": 5, "returns_of_returnable": 4, "return_rate_of_returnable": 0.8,
-         "returnable_rate": 0.5, "early_strokes": 2}
+         "returnable_rate": 0.5, "returns_outside_ceiling": 0, "early_strokes": 2}
     rows = table_rows({"gamma1": {"evaluation": {"real-test": r}},
                        "final": {"library": "power/library_power.npz", "real-test": r}})
     before, after = rows
@@ -321,8 +326,8 @@ def test_hard_report_rows_give_the_ceiling_and_the_early_strokes():
     assert before["key"] == "hard_gamma1" and "real-test serves" in before["experiment"]
     assert after["key"] == "hard_final" and "power/library_power.npz" in after["command"]
     for row in rows:
-        assert "4 of the 5 serves the oracle teacher returns = 80.0 % of the ceiling" in \
-            row["ours"]
+        assert ("4 of the 5 returnable serves = 80.0 %; legal returns outside the bound 0"
+                in row["ours"])
         assert "2 strokes began on an early physical-model prediction" in row["ours"]
 
 

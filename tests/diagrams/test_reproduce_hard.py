@@ -8,6 +8,7 @@ import json
 import pytest
 
 from tt_drake.diagrams import reproduce as rp
+from tt_drake.diagrams.ceiling import STRATEGIES
 from tt_drake.diagrams.report import (
     format_markdown,
     learning_comparison,
@@ -37,8 +38,9 @@ def test_the_default_sizes_depend_on_the_protocol_and_the_papers_are_unchanged(
                      protocol=protocol, until="teacher")
     paper = json.loads((tmp_path / "paper" / "config.json").read_text())
     hard = json.loads((tmp_path / "hard" / "config.json").read_text())
-    # a paper run's settings are those of the runs made before the hard sizes (so they resume)
-    assert paper == {"format": "tt-drake-reproduce", "version": 1, "quick": quick,
+    # a paper run's settings name no protocol; the version names the rules results are judged by
+    assert paper == {"format": "tt-drake-reproduce", "version": rp.RUN_FORMAT_VERSION,
+                     "quick": quick,
                      "config": (rp.quick_config() if quick else rp.ReproduceConfig()).to_dict()}
     assert hard["protocol"] == "hard" and hard["quick"] == quick
     assert hard["config"] == (rp.hard_quick_config() if quick else rp.hard_config()).to_dict()
@@ -71,6 +73,7 @@ class _Recorder:
 
     def __init__(self):
         self.calls = []
+        self.strategies = []
 
     def __call__(self, folder, scenario, player, serves, seed, gamma=None, desc="",
                  weights=None):
@@ -104,6 +107,14 @@ def _hard_run(tmp_path, monkeypatch, protocol="hard"):
         (run.root / stage / "result.json").write_text(json.dumps(result))
     recorder = _Recorder()
     monkeypatch.setattr(run, "rollouts", recorder)
+
+    def strategy_returns(path, scenario, strategy, indices, seed, desc=""):
+        recorder.strategies.append({"path": path, "strategy": strategy.name,
+                                    "perception": scenario.perception, "indices": indices,
+                                    "seed": seed})
+        return [False] * len(indices)  # the other strategies return nothing more
+
+    monkeypatch.setattr(run, "strategy_returns", strategy_returns)
     return run, recorder
 
 
@@ -124,7 +135,8 @@ def test_the_hard_player_plays_the_teachers_ik_and_is_judged_on_the_same_serves_
                 if c["player"] == "momp"]
 
     def oracle(calls):
-        return [c for c in calls if c["player"] == "analytical"]
+        return [{k: v for k, v in c.items() if k != "player"} for c in calls
+                if c["perception"] == "oracle"]
 
     c = run.config
     # the same serves before and after: distribution, the pool's deal seed, count and seeds
@@ -137,13 +149,18 @@ def test_the_hard_player_plays_the_teachers_ik_and_is_judged_on_the_same_serves_
         assert m["configuration"] == "analytical" and m["moving_goal"]
         assert m["perception"] != "oracle"
     assert len(momp(single)) == 3 * 3  # 3 primitives x the 3 training distributions
-    # the ceiling: the oracle analytical player on the same serves, into the same folders
+    # the returnable bound: the oracle strategies on the same serves, into the same folders
+    # (the teacher on all of them, each later strategy on the serves none before returned)
     assert [(o["distribution"], o["run_seed"], o["serves"], o["seed"], o["folder"].name)
             for o in oracle(after)] == [
         (m["distribution"], m["run_seed"], m["serves"], m["seed"], label)
         for m, label in zip(momp(after), ("spin", "real-test"), strict=True)]
-    assert all(o["perception"] == "oracle" for o in oracle(before) + oracle(after))
     assert oracle(before) == oracle(after)
+    unreturned = [k for k in range(c.final_serves) if k % 2]
+    assert [(s["strategy"], s["indices"], s["path"].parent.name)
+            for s in recorder.strategies[:len(STRATEGIES) - 1]] == [
+        (s.name, unreturned, "spin") for s in STRATEGIES[1:]]
+    assert all(s["perception"] == "oracle" for s in recorder.strategies)
     # the stage results say which player played (the report's commands name it)
     assert gamma1["configuration"] == final["configuration"] == "analytical"
     rows = table_rows({"gamma1": gamma1, "final": final})
@@ -163,7 +180,7 @@ def test_the_paper_profiles_real_serves_come_with_the_oracles_ceiling_on_the_sam
     run, recorder = _hard_run(tmp_path, monkeypatch, protocol="paper")
     final = rp.stage_final(run)
     momp = [c for c in recorder.calls if c["player"] == "momp"]
-    oracle = [c for c in recorder.calls if c["player"] == "analytical"]
+    oracle = [c for c in recorder.calls if c["perception"] == "oracle"]
     # only the real set gets a ceiling, played on the momp player's serves: the same
     # distribution, count and seeds, the pool dealt as `tt-drake serve --seed` deals it (the
     # report's command replays the figure)
@@ -178,7 +195,8 @@ def test_the_paper_profiles_real_serves_come_with_the_oracles_ceiling_on_the_sam
     assert final["real"]["return_rate_of_returnable"] == 1.0
     assert "returnable_serves" not in final["default"]
     rows = {r["key"]: r for r in table_rows({"final": final})}
-    assert "serves the oracle teacher returns = 100.0 % of the ceiling" in rows["real"]["ours"]
+    assert ("returnable serves = 100.0 %; legal returns outside the bound 0"
+            in rows["real"]["ours"])
 
 
 def _evaluation(rate, target, reward, returns, early):

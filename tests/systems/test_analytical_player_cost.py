@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from tt_drake.constants import PLANES
-from tt_drake.hitting_time import robot_half_bounces
+from tt_drake.hitting_time import last_robot_bounce
 from tt_drake.racket_law import aim_candidates
 from tt_drake.serves import FIXED_SERVE
 from tt_drake.systems.analytical_player import (
@@ -54,8 +54,8 @@ def test_a_bounce_just_behind_the_net_is_seen_at_the_bounce_tests_step():
         pos, vel = model.flight_step(pos, vel, w, 1e-4)
     state = np.r_[pos, vel, w]
     assert BOUNCE_TEST_STEP == 2e-3 < PREDICTION_STEP
-    assert robot_half_bounces(model, state, step=BOUNCE_TEST_STEP) == 1
-    assert robot_half_bounces(model, state, step=PREDICTION_STEP) == 0
+    assert last_robot_bounce(model, state, step=BOUNCE_TEST_STEP) is not None
+    assert last_robot_bounce(model, state, step=PREDICTION_STEP) is None
     hit = StrokePlanner(arm=object()).predict(state[:6], 0.0, state[6:])
     assert hit is not None and hit[0][1] == pytest.approx(PLANES.hitting_y)
 

@@ -1,13 +1,11 @@
 """The choice of hitting point along the predicted path (tt_drake.hitting_time)."""
 
-import math
-
 import numpy as np
 import pytest
 
-from tt_drake.ball_model import BallModel, CompliantBounceBallModel
+from tt_drake.ball_model import BallModel
 from tt_drake.constants import PLANES
-from tt_drake.hitting_time import HittingBand, choose_hitting_point, robot_half_bounces, unbounce
+from tt_drake.hitting_time import BounceCount, HittingBand, choose_hitting_point, last_robot_bounce
 from tt_drake.serves import ServeSampler
 
 MODEL = BallModel(dt=2e-3)
@@ -66,55 +64,44 @@ def test_a_short_ball_bouncing_twice_before_reach_has_no_hitting_point():
     assert choose_hitting_point(MODEL, state) is None
 
 
-def test_robot_half_bounces_by_following_the_flight_back():
+def test_last_robot_bounce_by_following_the_flight_back():
     state, plane = _real("low")
     bounce = next(b for b in plane.bounces if b.position[1] < 0.0)
-    assert robot_half_bounces(MODEL, state) == 0  # the opponent's half
-    assert robot_half_bounces(MODEL, MODEL.predict_time(state, bounce.t - 0.02).state) == 0
-    assert robot_half_bounces(MODEL, MODEL.predict_time(state, bounce.t + 0.02).state) == 1
-    assert robot_half_bounces(MODEL, plane.state) == 1  # at the hitting plane, behind the table
+    assert last_robot_bounce(MODEL, state) is None  # the opponent's half
+    assert last_robot_bounce(MODEL, MODEL.predict_time(state, bounce.t - 0.02).state) is None
+    ago = last_robot_bounce(MODEL, MODEL.predict_time(state, bounce.t + 0.02).state)
+    assert ago == pytest.approx(0.02, abs=MODEL.dt)
 
 
-@pytest.mark.parametrize("model", [MODEL, CompliantBounceBallModel(dt=2e-3)])
-def test_unbounce_inverts_the_bounce(model):
-    """A sliding bounce has one pre-image: unbounce finds it; a ball that leaves rolling has
-    many, and unbounce returns one that the bounce maps to the same state."""
-    rng = np.random.default_rng(3)
-    rolled = 0
-    for _ in range(200):
-        v = (rng.uniform(-2, 2), rng.uniform(-7, -1), rng.uniform(-6, -1))
-        w = tuple(rng.uniform(-150, 150, 3))
-        v1, w1 = model.bounce(v, w)
-        v0, w0 = unbounce(model, v1, w1)
-        again = model.bounce(v0, w0)
-        np.testing.assert_allclose(again[0], v1, atol=1e-9)
-        np.testing.assert_allclose(again[1], w1, atol=1e-7)
-        # sliding throughout: the friction impulse reached its Coulomb limit mu J_n
-        jn = (1.0 + model.table_restitution(-v[2])) * -v[2]
-        rolling = math.hypot(v1[0] - v[0], v1[1] - v[1]) < model.params.table_friction * jn - 1e-6
-        rolled += rolling
-        r = model.params.radius
-        if not rolling and math.hypot(v1[0] - r * w1[1], v1[1] + r * w1[0]) > 0.5:
-            # clearly sliding (near the rolling limit the pre-image is ill-conditioned)
-            np.testing.assert_allclose(v0, v, atol=1e-5)
-            np.testing.assert_allclose(w0, w, atol=1e-3)
-        else:
-            assert v0[2] == pytest.approx(v[2], abs=1e-9)  # the normal part is always exact
-    assert 0 < rolled < 200
+def test_bounce_count_counts_a_later_bounce_as_the_second():
+    count = BounceCount()
+    assert count.seen(None) == count and count.count == 0
+    one = count.seen(0.61)
+    assert (one.first, one.count) == (0.61, 1)
+    assert one.seen(0.615) == one and one.seen(None) == one  # the same bounce, seen again
+    two = one.seen(0.9)
+    assert two.count == 2 and two.seen(1.3) == two and two.seen(None) == two
 
 
 def test_a_ball_that_bounced_twice_on_the_robots_half_has_no_hitting_point():
     """The rules end the hitting window at the second bounce on the robot's half: between the
     bounces the chosen point comes before the second; after it there is none (the player lets
-    the ball go), however high the ball flies on."""
+    the ball go), however high the ball flies on; a player that counts the bounces as it sees
+    them (one estimate per camera frame) counts two only after the second."""
     state, plane = _real("short")
     first, second = [b for b in plane.bounces if b.position[1] < 0.0][:2]
-    for t in np.linspace(first.t + 0.01, second.t - 0.01, 6):
-        later = MODEL.predict_time(state, t).state
-        assert robot_half_bounces(MODEL, later) == 1
-        hit = choose_hitting_point(MODEL, later)
-        assert hit is None or t + hit.t <= second.t + 1e-9
-    for dt in (0.01, 0.05, 0.1):
-        after = MODEL.predict_time(state, second.t + dt).state
-        assert robot_half_bounces(MODEL, after) == 2
-        assert choose_hitting_point(MODEL, after) is None
+    count = BounceCount()
+    for t in np.arange(0.0, second.t + 0.15, 1.0 / 60.0):
+        now = MODEL.predict_time(state, t).state
+        ago = last_robot_bounce(MODEL, now)
+        count = count.seen(None if ago is None else t - ago)
+        assert count.count == int(t > first.t) + int(t > second.t)
+        hit = choose_hitting_point(MODEL, now, bounces_behind=count.count)
+        if count.count == 2:
+            assert hit is None
+        elif count.count == 1:
+            assert hit is None or t + hit.t <= second.t + 1e-9
+    # after the second bounce the look-back alone sees one bounce behind: without the count the
+    # hitting point would come after it
+    after = MODEL.predict_time(state, second.t + 0.05).state
+    assert last_robot_bounce(MODEL, after) == pytest.approx(0.05, abs=MODEL.dt)

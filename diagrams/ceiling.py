@@ -1,0 +1,118 @@
+"""The returnable bound: which serves the robot's mount can legally return (docs/rules.md).
+
+A serve is **returnable** when at least one *oracle strategy* returns it legally. Every
+strategy is the analytical player (the teacher, docs/analytical_player.md) with ``oracle``
+perception: the simulator's true ball state and spin at the camera's frames, no noise. The
+strategies differ in what a player may choose: where along the ball's path it hits (the hitting
+plane, the height band of :class:`tt_drake.hitting_time.HittingBand`, or the plane alone) and
+where on the opponent's court it aims (a legal return need not land on the target). They are
+tried in order, each only on the serves no earlier strategy returned, so the bound costs one
+oracle episode per serve plus one per strategy for each serve the earlier ones missed.
+
+The bound is empirical: it bounds a player only if that player returns no serve it calls
+unreturnable. Every ``--ceiling`` summary therefore reports ``returns_outside_ceiling``, the
+player's legal returns of serves outside it, beside the plain legal return rate.
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+from tt_drake.constants import PLANES
+from tt_drake.diagrams.episodes import add_analytical_player
+from tt_drake.diagrams.scenario import Scenario
+from tt_drake.hitting_time import HittingBand
+from tt_drake.systems.analytical_player import PlannerConfig
+
+
+@dataclass(frozen=True)
+class OracleStrategy:
+    """One way the oracle teacher may play a serve: ``target`` (x, y on the opponent's half,
+    m; None: the scenario's referee target), ``band`` (None: the hitting plane only) and the
+    hitting plane ``plane_y`` (m)."""
+
+    name: str
+    target: tuple[float, float] | None = None
+    band: HittingBand | None = HittingBand()
+    plane_y: float = PLANES.hitting_y
+
+    def planner_config(self, scenario: Scenario) -> PlannerConfig:
+        x, y = self.target or (scenario.referee.target_x, scenario.referee.target_y)
+        return PlannerConfig(target_x=x, target_y=y, band=self.band, plane_y=self.plane_y)
+
+
+#: The strategies of the bound, in the order they are tried (module docstring): the teacher as
+#: it plays, then other aims over the opponent's half (0.35-1.1 m past the net, 0.45 m either
+#: side of the centre line), other hitting heights and the plane alone, and hitting planes
+#: 0.17 m nearer and farther.
+STRATEGIES: tuple[OracleStrategy, ...] = (
+    OracleStrategy("teacher"),
+    OracleStrategy("short-left", target=(-0.45, 0.35)),
+    OracleStrategy("short-right", target=(0.45, 0.35)),
+    OracleStrategy("long", target=(0.0, 1.1)),
+    OracleStrategy("long-left", target=(-0.45, 1.0)),
+    OracleStrategy("long-right", target=(0.45, 1.0)),
+    OracleStrategy("low-band", band=HittingBand(plane_z_min=0.4, z_min=0.55)),
+    OracleStrategy("high-band", band=HittingBand(plane_z_min=0.6, z_min=0.8)),
+    OracleStrategy("plane-only", band=None),
+    OracleStrategy("near-plane", plane_y=PLANES.hitting_y + 0.17),
+    OracleStrategy("far-plane", plane_y=PLANES.hitting_y - 0.17),
+)
+
+
+def oracle_scenario(scenario: Scenario) -> Scenario:
+    """A copy of ``scenario`` with the oracle's perception (the caller's is left as it was)."""
+    oracle = copy.deepcopy(scenario)
+    oracle.perception = "oracle"
+    return oracle
+
+
+def strategy_player(strategy: OracleStrategy) -> Callable:
+    """A player function for :class:`tt_drake.diagrams.episodes.ServeDiagram`: the analytical
+    player planning with ``strategy``'s settings."""
+
+    def add(builder, world, controller, scenario):
+        return add_analytical_player(builder, world, controller, scenario,
+                                     config=strategy.planner_config(scenario))
+
+    return add
+
+
+def returnable_by(play: Callable[[OracleStrategy, list[int]], Sequence[bool]], serves: int,
+                  strategies: Sequence[OracleStrategy] = STRATEGIES) -> list[str | None]:
+    """For each serve i < ``serves``, the name of the first strategy that returns it legally,
+    or None. ``play(strategy, indices)`` plays the serves ``indices`` (the run's serve indices,
+    ascending) with the oracle teacher under ``strategy`` and says which it returned legally."""
+    found: list[str | None] = [None] * serves
+    for strategy in strategies:
+        todo = [i for i in range(serves) if found[i] is None]
+        if not todo:
+            break
+        returned = list(play(strategy, todo))
+        if len(returned) != len(todo):
+            raise ValueError(f"strategy {strategy.name}: {len(returned)} results for "
+                             f"{len(todo)} serves")
+        for i, ok in zip(todo, returned, strict=True):
+            if ok:
+                found[i] = strategy.name
+    return found
+
+
+def ceiling_summary(returned: Sequence[bool], returnable: Sequence[str | None]) -> dict:
+    """A player's figures against the bound on the same serves: ``returnable_rate`` (share of
+    serves the bound calls returnable), ``returnable_serves``, ``returns_of_returnable`` (the
+    player's legal returns among them), ``return_rate_of_returnable`` (their ratio; None if no
+    serve is returnable) and ``returns_outside_ceiling`` (legal returns of the others: not 0
+    means the bound is wrong for this player)."""
+    if len(returned) != len(returnable):
+        raise ValueError(f"{len(returned)} episodes but {len(returnable)} ceiling entries")
+    n = sum(r is not None for r in returnable)
+    inside = sum(bool(ok) and r is not None for ok, r in zip(returned, returnable, strict=True))
+    outside = sum(bool(ok) and r is None for ok, r in zip(returned, returnable, strict=True))
+    serves = len(returned)
+    return {"returnable_rate": n / serves if serves else 0.0, "returnable_serves": n,
+            "returns_of_returnable": inside,
+            "return_rate_of_returnable": inside / n if n else None,
+            "returns_outside_ceiling": outside}
