@@ -35,16 +35,18 @@ from tt_drake.hitting_time import HittingBand, choose_hitting_point
 
 
 def recorded_predictions(serves: int, seed: int, perception: str, distribution: str) -> list:
-    """The (estimate, time, spin) of every prediction the teacher made in ``serves`` serves."""
+    """The (estimate, time, spin, bounces behind) of every prediction the teacher made in
+    ``serves`` serves."""
     scenario = load_scenario()
     scenario = dataclasses.replace(scenario, perception=perception, launcher=dataclasses.replace(
         scenario.launcher, distribution=distribution))
     calls = []
     original = ap.StrokePlanner.predict
 
-    def predict(self, state6, t_state, spin=None):
-        calls.append((np.array(state6), float(t_state), None if spin is None else np.array(spin)))
-        return original(self, state6, t_state, spin)
+    def predict(self, state6, t_state, spin=None, bounces_behind=None):
+        calls.append((np.array(state6), float(t_state), None if spin is None else np.array(spin),
+                      bounces_behind))
+        return original(self, state6, t_state, spin, bounces_behind)
 
     ap.StrokePlanner.predict = predict
     try:
@@ -97,14 +99,14 @@ def in_serves(serves: int, seed: int, perception: str, distribution: str) -> Non
               f"({serves} recorded {distribution} serves, {perception}, seed {seed})")
 
 
-def _predict(model, bounce_step, state6, t_state, spin):
+def _predict(model, bounce_step, state6, t_state, spin, bounces_behind):
     """``StrokePlanner.predict`` with ``model`` and the bounce test at ``bounce_step``."""
     state6 = np.asarray(state6, dtype=float)
     if state6[4] >= 0.0 or state6[1] <= PLANES.hitting_y:
         return None
     w = np.zeros(3) if spin is None else np.asarray(spin, dtype=float)
     hit = choose_hitting_point(model, np.r_[state6, w], PLANES.hitting_y, HittingBand(),
-                               bounce_step=bounce_step)
+                               bounce_step=bounce_step, bounces_behind=bounces_behind)
     return None if hit is None else (hit.position, hit.velocity, t_state + hit.t, hit.spin)
 
 
@@ -130,11 +132,11 @@ def main() -> None:
     models = [ap.planner_ball_model(dt) for _, dt, _ in variants]
     out = [[] for _ in variants]
     cpu = [0.0] * len(variants)
-    for i, (s, t, w) in enumerate(calls):  # each prediction by every variant, order rotating
+    for i, (s, t, w, b) in enumerate(calls):  # each prediction by every variant, order rotating
         for j in range(len(variants)):
             k = (i + j) % len(variants)
             c0 = time.process_time()
-            out[k].append(_predict(models[k], variants[k][2], s, t, w))
+            out[k].append(_predict(models[k], variants[k][2], s, t, w, b))
             cpu[k] += time.process_time() - c0
     reference = out[0]
     hits = sum(r is not None for r in reference)

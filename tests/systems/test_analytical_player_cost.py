@@ -90,9 +90,9 @@ class _CountingPlanner(StrokePlanner):
         super().__init__()
         self.predicted_at: list[float] = []
 
-    def predict(self, state6, t_state, spin=None):
+    def predict(self, state6, t_state, spin=None, bounces_behind=None):
         self.predicted_at.append(t_state)
-        return super().predict(state6, t_state, spin)
+        return super().predict(state6, t_state, spin, bounces_behind)
 
 
 def test_no_prediction_past_the_correction_cutoff_yet_every_frame_is_seen():
