@@ -5,6 +5,7 @@ summary. Rollouts are synthetic (no simulation); ``make reproduce-quick-hard`` r
 
 import json
 
+import numpy as np
 import pytest
 
 from tt_drake.diagrams import reproduce as rp
@@ -292,3 +293,71 @@ def test_a_hard_run_folder_writes_the_comparison_and_its_plot(tmp_path):
     assert axes["target_of_ceiling"]["change"] is None  # not recorded: no figure, no change
     text = (run.root / "report.md").read_text()
     assert "| on target, per oracle teacher's on-target return | 25.0 % | - | - |" in text
+
+
+#: The splits kept for reporting (docs/rules.md): no choice and no training draws them.
+TEST_SPLITS = {"real-test", "rally-test"}
+
+
+def test_no_protocol_learns_from_a_test_split():
+    for protocol in rp.PROTOCOLS.values():
+        assert not set(protocol.train) & TEST_SPLITS, protocol.name
+
+
+@pytest.mark.parametrize("protocol", ["hard", "paper"])
+def test_the_training_and_selection_stages_never_draw_a_test_split(tmp_path, monkeypatch,
+                                                                   protocol):
+    """Every stage before the evaluations (teacher, predictor training, CrKR with its choice of
+    the best iteration, single primitives, responsibility learning, PoWER) is run with every
+    source of serves recorded: none of them draws real-test or rally-test serves. The
+    evaluations (the predictor's report, gamma = 1 and final) may, and the hard protocol does."""
+    import shutil
+    from importlib import resources
+
+    from tt_drake.diagrams import collect as collect_module
+    from tt_drake.diagrams import predictor as predictor_module
+    from tt_drake.diagrams import train as train_module
+
+    run, recorder = _hard_run(tmp_path, monkeypatch, protocol=protocol)
+    models = resources.files("tt_drake.models")
+    shutil.copy(str(models / "learned-hard" / "library.npz"), run.root / "library" / "library.npz")
+    (run.root / "library" / "result.json").write_text(json.dumps(
+        {"library": "library/library.npz", "primitives": 4}))
+    drawn = []
+
+    def collect(scenario, player, serves, seed, out, *args, **kwargs):
+        drawn.append(("teacher", scenario.launcher.distribution))
+        return {"return_rate": 1.0}
+
+    def train_predictor(serves, seed, out, distribution=None, **kwargs):
+        drawn.append(("predictor training", distribution or "default"))
+        return {"serves": serves, "used": serves, "skipped": 0}
+
+    def eval_predictor(model, serves, seed, out, distribution=None, **kwargs):
+        drawn.append(("predictor report", distribution or "default"))
+        (run.root / "predictor" / "eval.json").write_text("{}")
+        return {"serves": serves, "used": serves, "skipped": 0, "gpr": [{"nmse": 0.1}],
+                "physical": [], "errors": np.zeros(1)}
+
+    monkeypatch.setattr(collect_module, "collect", collect)
+    monkeypatch.setattr(rp, "_merge_datasets", lambda folders, out: 1.0)
+    monkeypatch.setattr(predictor_module, "train_predictor", train_predictor)
+    monkeypatch.setattr(predictor_module, "eval_predictor", eval_predictor)
+    monkeypatch.setattr(train_module, "train_crkr", lambda *a, **k: None)
+    for stage in (rp.stage_teacher, rp.stage_predictor, rp.stage_crkr, rp.stage_single,
+                  rp.stage_responsibility, rp.stage_power):
+        name = stage.__name__.removeprefix("stage_")
+        before = len(recorder.calls)
+        run.finish(name, stage(run), 0.0)
+        drawn += [(name, c["distribution"]) for c in recorder.calls[before:]]
+    training = [d for d in drawn if d[0] != "predictor report"]
+    assert {stage for stage, _ in training} >= {"teacher", "predictor training", "crkr",
+                                                 "single", "responsibility", "power"}
+    assert not [d for d in training if set(d[1].split(",")) & TEST_SPLITS]
+    assert {d for _, dist in training for d in dist.split(",")} <= set(
+        run.protocol.train) | {"default"}
+    recorder.calls.clear()
+    rp.stage_gamma1(run)
+    rp.stage_final(run)
+    evaluated = {c["distribution"] for c in recorder.calls}
+    assert ("real-test" in evaluated) == (protocol == "hard")
