@@ -228,3 +228,31 @@ def test_the_rally_reads_the_same_rules():
     for events in (over, late):
         verdict = judge(events)
         assert decide(events, 1.3, 0.3, 3.0)[0] == ("returned" if verdict.returned else "fault")
+
+
+def test_no_verdict_returns_a_ball_that_bounced_twice_before_the_hit():
+    """Over random contact sequences (every kind, anywhere on either half), judge calls none
+    ``returned`` whose ball bounced twice on the robot's half before the racket's first touch,
+    and the rally's decide agrees with judge on every sequence that ends decided."""
+    from tt_drake.rally_rules import decide
+    from tt_drake.referee_rules import receiver_bounces
+
+    rng = np.random.default_rng(7)
+    kinds = ["table", "table", "table", "racket", "net", "floor"]
+    seen_late_hits = 0
+    for _ in range(3000):
+        n = int(rng.integers(1, 7))
+        items = [(0.2 * (k + 1), str(rng.choice(kinds)), float(rng.uniform(-1.3, 1.3)))
+                 for k in range(n)]
+        events = contacts(*items)
+        verdict = judge(events)
+        late = receiver_bounces(events) >= 2
+        if late and verdict.hit:
+            seen_late_hits += 1
+            assert not verdict.returned and "double_bounce" in verdict.faults
+        if verdict.returned:
+            assert receiver_bounces(events) <= 1
+        rally = decide(events, 10.0, 0.0, 3.0)
+        if rally is not None and verdict.hit:
+            assert (rally[0] == "returned") == verdict.returned
+    assert seen_late_hits > 50
