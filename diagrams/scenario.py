@@ -17,6 +17,7 @@ from typing import Any
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
 from tt_drake.camera_model import CameraConfig
+from tt_drake.constants import MAX_EXCHANGES
 from tt_drake.rally_rules import RallyConfig
 from tt_drake.referee_rules import RefereeConfig
 from tt_drake.systems.aerodynamics import AerodynamicsConfig
@@ -256,8 +257,8 @@ FIELD_RULES: dict[str, Check] = {
     "rally.target_y": number(above=0.0),
     "rally.flight_times": lambda v: (None if v and all(number(above=0.0)(t) is None for t in v)
                                      else "needs one or more numbers > 0"),
-    "rally.max_exchanges": number(minimum=1),
-    "rally.exchange_timeout": number(above=0.0),
+    "rally.max_exchanges": number(minimum=1, maximum=MAX_EXCHANGES),
+    "rally.exchange_timeout": number(above=0.0, maximum=60.0),
     "controller.kp": each(7, number(minimum=0.0, above=0.0)),
     "controller.ki": each(7, number(minimum=0.0)),
     "controller.kd": each(7, number(minimum=0.0, above=0.0)),
