@@ -22,7 +22,7 @@ from tt_drake.rally_rules import RallyConfig
 from tt_drake.referee_rules import RefereeConfig
 from tt_drake.systems.aerodynamics import AerodynamicsConfig
 from tt_drake.systems.ball_launcher import LauncherConfig
-from tt_drake.systems.world import WorldConfig
+from tt_drake.systems.world import WorldConfig, is_explicit_path, model_path
 
 
 def _zeros7() -> list[float]:
@@ -109,10 +109,24 @@ class ScenarioError(ValueError):
 
 
 def scenario_path(name_or_path: str) -> Path:
+    """A scenario file: a ``.yaml`` (``.yml``) file or a path with a folder part
+    (:func:`is_explicit_path`) as given; any other name is ``models/<name>.yaml`` of the package
+    (a file of that name in the working folder is not looked at)."""
     path = Path(name_or_path)
-    if path.suffix in (".yaml", ".yml") or path.exists():
+    if path.suffix in (".yaml", ".yml") or is_explicit_path(name_or_path):
         return path
     return Path(str(resources.files("tt_drake.models").joinpath(f"{name_or_path}.yaml")))
+
+
+def resolve_model_paths(scenario: Scenario) -> None:
+    """Replace each model file given as a path by its absolute path, so that the scenario a run
+    records (its JSON) names the file that was played, wherever the run is replayed from; bare
+    names stay, they name the package's files."""
+    models = scenario.world.models
+    for kind in ("table", "ball") + (("robot",) if scenario.world.with_robot else ()):
+        name = getattr(models, kind)
+        if name and is_explicit_path(name):
+            setattr(models, kind, str(model_path(name)))
 
 
 def load_scenario(name_or_path: str = "default") -> Scenario:
@@ -131,6 +145,7 @@ def load_scenario(name_or_path: str = "default") -> Scenario:
         message = " ".join(str(err).split())
         raise ScenarioError(f"invalid scenario {path}: {message}") from None
     validate(scenario, path)
+    resolve_model_paths(scenario)
     return scenario
 
 
