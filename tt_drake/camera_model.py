@@ -107,6 +107,16 @@ class CameraConfig:
         return asdict(self)
 
 
+def camera_from_dict(d) -> CameraConfig:
+    """The camera settings saved with an artefact (:meth:`CameraConfig.as_dict`), checked as a
+    scenario's are: known keys, numbers, ranges. Raises ValueError naming every problem."""
+    if not isinstance(d, dict):
+        raise ValueError(f"camera settings must be a mapping, got {type(d).__name__}")
+    unknown = set(d) - set(CameraConfig.__dataclass_fields__)
+    if unknown:
+        raise ValueError(f"unknown camera settings {sorted(unknown)}")
+    return CameraConfig(**d)  # __post_init__ raises ValueError with the problems
+
 
 @dataclass(frozen=True)
 class EpisodeDraws:
