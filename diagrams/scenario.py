@@ -23,6 +23,7 @@ from tt_drake.referee_rules import RefereeConfig
 from tt_drake.systems.aerodynamics import AerodynamicsConfig
 from tt_drake.systems.ball_launcher import LauncherConfig
 from tt_drake.systems.world import WorldConfig, is_explicit_path, model_path
+from tt_drake.wam_params import EFFORT_LIMIT
 
 
 def _zeros7() -> list[float]:
@@ -53,8 +54,8 @@ class ControllerConfig:
 
     def problems(self) -> list[str]:
         """What is wrong with the values: the ``controller.*`` rules of :data:`FIELD_RULES`
-        (seven finite values per joint list, gains, friction and noise >= 0, kp and kd > 0,
-        scales in [0.1, 10], coulomb_velocity > 0)."""
+        (seven finite values per joint list, gains >= 0, kp and kd > 0, friction and noise in
+        [0, the joint's effort limit], scales in [0.1, 10], coulomb_velocity in [0.01, 10])."""
         return rule_problems(self, "controller")
 
 
@@ -195,6 +196,21 @@ def each(size: int, element: Check) -> Check:
     return check
 
 
+def per_joint(maxima, minimum: float = 0.0) -> Check:
+    """Seven numbers, the j-th in [minimum, maxima[j]]."""
+
+    def check(values):
+        if len(values) != len(maxima):
+            return f"needs {len(maxima)} values (got {len(values)})"
+        for i, (value, maximum) in enumerate(zip(values, maxima, strict=True)):
+            problem = number(minimum=minimum, maximum=maximum)(value)
+            if problem:
+                return f"[{i}] {problem}"
+        return None
+
+    return check
+
+
 def one_of(*choices: str) -> Check:
     def check(value):
         return None if value in choices else f"{value!r} is not one of {', '.join(choices)}"
@@ -237,6 +253,16 @@ def check_model_file(name: str) -> str | None:
 
 
 MAX_RATE = 10_000.0  # Hz: a referee (and its arm loggers) faster than this is no table-tennis rate
+# Joint friction and torque noise of the simulated arm, per joint, at most the joint's effort
+# limit: Coulomb friction (or noise) beyond it holds the joint against every torque its motor can
+# give, and viscous friction b with b (1 rad/s) beyond it stops every stroke (strokes move the
+# joints at several rad/s). The smoothing velocity v_s of -c tanh(v / v_s) lies in
+# [0.01, 10] rad/s (joint friction models smooth the sign change over 0.01-0.1 rad/s): the
+# friction's slope at rest, c / v_s, makes the arm's equations stiff, and the integrator's error
+# control shrinks its steps in proportion to v_s (docs/robustness.md); above 10 rad/s it is
+# viscous friction.
+JOINT_FRICTION_MAX = EFFORT_LIMIT  # N m, and N m s/rad for the viscous part
+COULOMB_VELOCITY_RANGE = (0.01, 10.0)  # rad/s
 
 FIELD_RULES: dict[str, Check] = {
     "world.plant.time_step": number(minimum=0.0, maximum=0.01),
@@ -279,10 +305,11 @@ FIELD_RULES: dict[str, Check] = {
     "controller.kd": each(7, number(minimum=0.0, above=0.0)),
     "controller.mass_scale": number(minimum=0.1, maximum=10.0),
     "controller.inertia_scale": number(minimum=0.1, maximum=10.0),
-    "controller.joint_viscous": each(7, number(minimum=0.0)),
-    "controller.joint_coulomb": each(7, number(minimum=0.0)),
-    "controller.coulomb_velocity": number(above=0.0),
-    "controller.torque_noise": each(7, number(minimum=0.0)),
+    "controller.joint_viscous": per_joint(JOINT_FRICTION_MAX),
+    "controller.joint_coulomb": per_joint(JOINT_FRICTION_MAX),
+    "controller.coulomb_velocity": number(minimum=COULOMB_VELOCITY_RANGE[0],
+                                          maximum=COULOMB_VELOCITY_RANGE[1]),
+    "controller.torque_noise": per_joint(JOINT_FRICTION_MAX),
     "after_crossing": number(above=0.0, maximum=60.0),
 }
 
