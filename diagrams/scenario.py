@@ -181,29 +181,15 @@ def number(minimum: float | None = None, maximum: float | None = None,
     return check
 
 
-def each(size: int, element: Check) -> Check:
-    """A list of ``size`` values, each passing ``element``."""
+def each(size: int, element: Check | list[Check]) -> Check:
+    """A list of ``size`` values, each passing ``element`` (or the i-th its own ``element[i]``)."""
+    elements = element if isinstance(element, list) else [element] * size
 
     def check(values):
         if len(values) != size:
             return f"needs {size} values (got {len(values)})"
-        for i, value in enumerate(values):
-            problem = element(value)
-            if problem:
-                return f"[{i}] {problem}"
-        return None
-
-    return check
-
-
-def per_joint(maxima, minimum: float = 0.0) -> Check:
-    """Seven numbers, the j-th in [minimum, maxima[j]]."""
-
-    def check(values):
-        if len(values) != len(maxima):
-            return f"needs {len(maxima)} values (got {len(values)})"
-        for i, (value, maximum) in enumerate(zip(values, maxima, strict=True)):
-            problem = number(minimum=minimum, maximum=maximum)(value)
+        for i, (value, rule) in enumerate(zip(values, elements, strict=True)):
+            problem = rule(value)
             if problem:
                 return f"[{i}] {problem}"
         return None
@@ -260,8 +246,8 @@ MAX_RATE = 10_000.0  # Hz: a referee (and its arm loggers) faster than this is n
 # [0.01, 10] rad/s (joint friction models smooth the sign change over 0.01-0.1 rad/s): the
 # friction's slope at rest, c / v_s, makes the arm's equations stiff, and the integrator's error
 # control shrinks its steps in proportion to v_s (docs/robustness.md); above 10 rad/s it is
-# viscous friction.
-JOINT_FRICTION_MAX = EFFORT_LIMIT  # N m, and N m s/rad for the viscous part
+# viscous friction. (N m, and N m s/rad for the viscous part.)
+JOINT_FRICTION = each(7, [number(minimum=0.0, maximum=limit) for limit in EFFORT_LIMIT])
 COULOMB_VELOCITY_RANGE = (0.01, 10.0)  # rad/s
 
 FIELD_RULES: dict[str, Check] = {
@@ -305,11 +291,11 @@ FIELD_RULES: dict[str, Check] = {
     "controller.kd": each(7, number(minimum=0.0, above=0.0)),
     "controller.mass_scale": number(minimum=0.1, maximum=10.0),
     "controller.inertia_scale": number(minimum=0.1, maximum=10.0),
-    "controller.joint_viscous": per_joint(JOINT_FRICTION_MAX),
-    "controller.joint_coulomb": per_joint(JOINT_FRICTION_MAX),
+    "controller.joint_viscous": JOINT_FRICTION,
+    "controller.joint_coulomb": JOINT_FRICTION,
     "controller.coulomb_velocity": number(minimum=COULOMB_VELOCITY_RANGE[0],
                                           maximum=COULOMB_VELOCITY_RANGE[1]),
-    "controller.torque_noise": per_joint(JOINT_FRICTION_MAX),
+    "controller.torque_noise": JOINT_FRICTION,
     "after_crossing": number(above=0.0, maximum=60.0),
 }
 
