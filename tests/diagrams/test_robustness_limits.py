@@ -11,6 +11,7 @@ from importlib import resources
 import numpy as np
 import pytest
 
+from tests.diagrams._cli import one_line_error
 from tt_drake.artefacts import load_artefact, save_artefact
 from tt_drake.camera_model import CameraConfig, CameraModel
 from tt_drake.diagrams.cli import main
@@ -20,19 +21,6 @@ from tt_drake.learned_player import LIBRARY_FILE_KIND, LearnedArtefactError, loa
 
 MODELS = resources.files("tt_drake.models")
 SHIPPED = str(MODELS.joinpath("learned"))
-
-
-def one_line_error(capsys, argv):
-    """Run ``tt-drake argv`` in this process: exit status 2 and one line on stderr, returned."""
-    try:
-        status = main(argv)
-    except SystemExit as exit_:
-        status = exit_.code
-    err = capsys.readouterr().err
-    lines = [line for line in err.splitlines() if line.strip()]
-    assert status == 2, err
-    assert len(lines) == 1 and "Traceback" not in err, err
-    return lines[0]
 
 
 def scenario_file(tmp_path, text: str, name: str = "s.yaml"):
