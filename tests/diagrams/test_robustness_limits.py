@@ -251,6 +251,19 @@ def test_a_library_of_absurd_magnitudes_is_refused(tmp_path):
         load_player_library(path)
 
 
+@pytest.mark.parametrize("key, value, message", [
+    ("alpha_y", float("inf"), "must be finite"),
+    ("eta_max", float("inf"), "must be finite"),
+    ("min_steps", 10**9, "min_steps must be at most"),
+])
+def test_a_library_with_absurd_dmp_settings_is_refused(tmp_path, key, value, message):
+    arrays, meta = load_artefact(f"{SHIPPED}/library.npz", LIBRARY_FILE_KIND)
+    meta["dmp"][key] = value
+    path = save_artefact(tmp_path / "l.npz", LIBRARY_FILE_KIND, arrays, meta)
+    with pytest.raises(LearnedArtefactError, match=message):
+        load_player_library(path)
+
+
 # -- physical ranges of the controller's faults ------------------------------------------------
 
 @pytest.mark.parametrize("text, message", [
