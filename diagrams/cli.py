@@ -32,6 +32,8 @@ import argparse
 import sys
 from collections.abc import Callable
 
+from tt_drake.constants import MAX_EXCHANGES
+
 EXIT_BAD_INPUT = 2
 
 
@@ -237,8 +239,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help="the first ball, to robot A: a launcher serve of the scenario's "
                             "distribution, or a real rally ball (rallies.json)")
     rally.add_argument("--max-exchanges", type=_positive_int, default=None,
-                       help="stop a rally after this many exchanges (default: the scenario's, "
-                            "50)")
+                       help=f"stop a rally after this many exchanges, at most {MAX_EXCHANGES} "
+                            "(default: the scenario's, 50)")
     rally.add_argument("--html", default=None, help="write a self-contained Meshcat recording")
     rally.add_argument("--json", default=None, help="write the summary and one record per rally")
     rally.add_argument("--quiet", action="store_true", help="no progress bar")
