@@ -358,7 +358,7 @@ class LearnedArtefactError(ArtefactError):
 # bandwidths are kernel widths in the stimulus' units, and s, n sums of rewards and counts.
 LIBRARY_RANGES = {
     "weights": (-1e5, 1e5), "amplitude": (-2 * math.pi, 2 * math.pi),
-    "stimuli": (-1e4, 1e4), "bandwidths": (1e-9, 1e4), "gamma": (0.0, 1.0),
+    "stimuli": (-1e4, 1e4), "bandwidths": (0.0, 1e4), "gamma": (0.0, 1.0),
     "s": (0.0, 1e9), "n": (0.0, 1e9),
     **{f"{key}_{name}": bounds for key in ("preparation", "follow_through", "awaiting")
        for name, bounds in (("weights", (-1e5, 1e5)), ("amplitude", (-2 * math.pi, 2 * math.pi)),
