@@ -120,7 +120,7 @@ def camera_from_dict(d) -> CameraConfig:
 
 @dataclass(frozen=True)
 class EpisodeDraws:
-    """Random draws of one episode, one row per frame."""
+    """Random draws of one block of an episode's frames, one row per frame."""
 
     dropped: np.ndarray  # (F,) bool
     noise: np.ndarray  # (F, 3) measurement error added to the true position (m)
