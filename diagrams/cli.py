@@ -32,6 +32,8 @@ import argparse
 import sys
 from collections.abc import Callable
 
+from tt_drake.constants import MAX_EXCHANGES
+
 EXIT_BAD_INPUT = 2
 
 
@@ -172,7 +174,8 @@ def _add_learned_options(p: argparse.ArgumentParser, artefact_sets: bool = True)
                    type=_one_of("hitting configuration", CONFIGURATION_NAMES),
                    choices=CONFIGURATION_NAMES,
                    help="learned players: hitting configuration from the CrKR model or the "
-                        "analytical IK" + (" (default: crkr; with --artefacts, the set's)"
+                        "analytical IK" + (" (default: the scenario's, crkr; with --artefacts, "
+                                           "the set's; the crkr player: always crkr)"
                                            if artefact_sets else ""))
     if not artefact_sets:
         return
@@ -240,8 +243,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help="the first ball, to robot A: a launcher serve of the scenario's "
                             "distribution, or a real rally ball (rallies.json)")
     rally.add_argument("--max-exchanges", type=_positive_int, default=None,
-                       help="stop a rally after this many exchanges (default: the scenario's, "
-                            "50)")
+                       help=f"stop a rally after this many exchanges, at most {MAX_EXCHANGES} "
+                            "(default: the scenario's, 50)")
     rally.add_argument("--html", default=None, help="write a self-contained Meshcat recording")
     rally.add_argument("--json", default=None, help="write the summary and one record per rally")
     rally.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -368,17 +371,25 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _scenario(args):
-    from tt_drake.diagrams.scenario import load_scenario, validate
+    from tt_drake.diagrams.scenario import LearnedPlayerConfig, load_scenario, validate
 
     scenario = load_scenario(args.scenario)
     if getattr(args, "library", None) is not None:
+        # An option given replaces the scenario's setting; one not given leaves it.
         learned = scenario.learned
         learned.library = args.library or learned.library
         learned.crkr = args.crkr or learned.crkr
         learned.predictor = args.predictor or learned.predictor
-        learned.configuration = args.configuration or "crkr"
-        _use_shipped_artefacts(args.player, scenario, getattr(args, "artefacts", None),
-                               args.configuration is not None)
+        chosen = args.configuration is not None or (
+            learned.configuration != LearnedPlayerConfig().configuration)
+        if args.configuration is not None:
+            learned.configuration = args.configuration
+        if args.player == "crkr" and learned.configuration != "crkr":
+            raise CliError(f"the crkr player plays the CrKR hitting configuration, not "
+                           f"{learned.configuration!r} (set by --configuration or the "
+                           f"scenario); for the teacher's IK use --player analytical or "
+                           f"--player momp --configuration {learned.configuration}")
+        _use_shipped_artefacts(args.player, scenario, getattr(args, "artefacts", None), chosen)
     if args.distribution is not None:
         scenario.launcher.distribution = args.distribution
         validate(scenario, "--distribution")
@@ -396,8 +407,9 @@ def _use_shipped_artefacts(player: str | None, scenario, artefact_set: str | Non
     """A learned player given no artefact (none on the command line, none in the scenario)
     plays with a shipped set: ``artefact_set`` (``--artefacts``), by default ``paper``, the
     ones in tt_drake/models/learned/ (what ``make demo`` shows), with the set's moving goal and,
-    unless ``--configuration`` was given, its hitting configuration. A set is the whole player:
-    naming files too is refused (CliError, one line)."""
+    unless ``--configuration`` or the scenario chose one, the set's hitting configuration (the
+    ``crkr`` player's is always its CrKR model). A set is the whole player: naming files too is
+    refused (CliError, one line)."""
     from tt_drake.models import shipped_artefact, use_artefact_set
 
     learned = scenario.learned
@@ -408,9 +420,10 @@ def _use_shipped_artefacts(player: str | None, scenario, artefact_set: str | Non
     if player not in ("momp", "crkr") or named:
         return
     chosen = artefact_set or "paper"
-    use_artefact_set(learned, chosen, configuration_given)
+    use_artefact_set(learned, chosen, configuration_given or player == "crkr")
     print(f"tt-drake: the {player} player uses the shipped artefacts in "
-          f"{shipped_artefact('library', chosen).parent}", file=sys.stderr)
+          f"{shipped_artefact('library', chosen).parent} (hitting configuration: "
+          f"{learned.configuration})", file=sys.stderr)
 
 
 def _check_serves(scenario) -> None:

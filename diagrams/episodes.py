@@ -175,6 +175,10 @@ def load_learned_player(scenario: Scenario, primitives: bool = True, keep: bool 
         out["gpr"] = HittingPointGPR.load(cfg.predictor) if cfg.predictor else None
     except (LearnedArtefactError, PredictorFileError) as err:
         raise PlayerError(str(err)) from None
+    if out["gpr"] is not None and out["gpr"].estimator is None:
+        raise PlayerError(f"{cfg.predictor}: the predictor has no saved estimator settings (the "
+                          "filter it was trained on); train it again with tt-drake "
+                          "train-predictor")
     if keep:
         _CHECKED[key] = out
     return out
@@ -203,7 +207,6 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     moves between the stages with the teacher's quintics instead of the motor primitives: the
     learned hitting configuration evaluated on its own."""
     from tt_drake.ball_model import CompliantBounceBallModel
-    from tt_drake.estimation import config_from_dict
     from tt_drake.hitting_point import PhysicalPredictor
     from tt_drake.hitting_time import HittingBand
     from tt_drake.systems.analytical_player import PlannerConfig, StrokePlanner
@@ -216,7 +219,7 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     # A GPR is fed the estimates of the filter it was trained on (docs/spin.md).
     gpr = learned["gpr"]
     seeded, estimator = add_perception(builder, world, scenario,
-                                       config_from_dict(gpr.meta["estimator"]) if gpr else None)
+                                       gpr.estimator if gpr else None)
     # Early predictions start the MoMP player's preparation stage at detection (paper section
     # III-C). The crkr player (the teacher's quintic stages, section III-B.2) waits for the final
     # prediction: with ~0.5 s left at detection its stages leave no room for a preparation, so

@@ -44,7 +44,7 @@ from tt_drake.camera_model import CameraConfig, CameraModel
 from tt_drake.constants import PLANES
 from tt_drake.diagrams.ball_world import BallOnlyWorld
 from tt_drake.diagrams.episodes import check_run
-from tt_drake.estimation import EstimatorConfig, config_from_dict, nees, run_filter
+from tt_drake.estimation import EstimatorConfig, nees, run_filter
 from tt_drake.hitting_point import (
     OUTPUT_NAMES,
     HittingPointGPR,
@@ -514,8 +514,10 @@ def eval_predictor(model: str, serves: int, seed: int, json_path: str | None = N
     if meta.get("train_seed") == seed:
         raise PredictorError(f"evaluation seed {seed} equals the training seed: use another "
                              "seed for held-out serves")
-    camera = CameraConfig(**meta["camera"])
-    estimator = config_from_dict(meta["estimator"])
+    camera, estimator = gpr.camera, gpr.estimator
+    if camera is None or estimator is None:
+        raise PredictorError(f"{model}: the predictor has no saved camera or estimator settings "
+                             "(the perception it was trained on); train it again")
     wall = time.perf_counter()
     cache = _cache_dir(json_path) if json_path else None
     samples = generate_mix(serves, seed, distributions, cache, workers, progress)

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tt_drake.camera_model import MAX_CAMERA_FRAMES
 from tt_drake.diagrams.episodes import PLAYERS, PlayerError, check_run, episode_seed
 from tt_drake.diagrams.recording import RecordingScene
 from tt_drake.diagrams.scenario import Scenario, validate
@@ -144,22 +145,25 @@ def rally_scenario(scenario: Scenario, start: str = "serve") -> Scenario:
     scenario.world.with_second_robot = True
     if start == "rally":
         scenario.launcher.distribution = "rally"
-    # The camera's draws for a whole rally, the same number whatever the cap (the noise of
-    # frame k depends on how many are drawn): a rally replays the same under another cap.
-    frames = math.ceil(MAX_RALLY_DURATION / scenario.camera.period) + 2
-    scenario.camera.max_frames = max(scenario.camera.max_frames, frames)
+    # The camera's first block of draws covers RALLY_CAMERA_BLOCK seconds whatever the cap (the
+    # noise of frame k depends on the block size; later frames come from further blocks,
+    # tt_drake.camera_model): a rally replays the same under another cap.
+    frames = math.ceil(RALLY_CAMERA_BLOCK / scenario.camera.period) + 2
+    scenario.camera.max_frames = max(scenario.camera.max_frames,
+                                     min(frames, MAX_CAMERA_FRAMES))
     return scenario
 
 
-#: The longest a rally is simulated (s), whatever its cap: 50 exchanges take about 55 s.
-MAX_RALLY_DURATION = 300.0
+#: Seconds of camera frames drawn in the rally camera's first block (50 exchanges take ~55 s).
+RALLY_CAMERA_BLOCK = 300.0
 
 
 def max_duration(scenario: Scenario) -> float:
-    """The longest a rally is simulated (s): every exchange (and the start) at its timeout, and
-    :data:`MAX_RALLY_DURATION` at most."""
-    return min((scenario.rally.max_exchanges + 1) * scenario.rally.exchange_timeout,
-               MAX_RALLY_DURATION)
+    """The longest a rally is simulated (s): every exchange (and the start) at its timeout, each
+    decided at most one referee tick after it: ``(max_exchanges + 1) (exchange_timeout +
+    1 / referee_rate)``. A rally still in play then ends as capped."""
+    return ((scenario.rally.max_exchanges + 1)
+            * (scenario.rally.exchange_timeout + 1.0 / scenario.referee_rate))
 
 
 class RallyDiagram:
@@ -271,18 +275,17 @@ class RallyDiagram:
         self.simulator.Initialize()
         self.simulator.AdvanceTo(max_duration(self.scenario))  # the referee ends it earlier
         record = self.referee.record(self.referee.GetMyContextFromRoot(self.context))
-        fault = record.fault
         t = self.context.get_time()
-        if not record.over:  # cannot happen: every exchange times out first
-            fault = RallyFault(record.receiver, "no_landing", t)
+        # At the time limit a rally still in play ended on no one's fault: capped.
+        capped = record.capped or not record.over
         poses = None
         if self.loggers:
             logs = [logger.FindLog(self.context) for logger in self.loggers]
             n = min(log.num_samples() for log in logs)
             poses = (logs[0].sample_times()[:n].copy(),
                      *(log.data()[:, :n].T.copy() for log in logs))
-        return RallyResult(seed, list(serve.launch_state), list(record.exchanges), fault,
-                           record.capped, t, time.perf_counter() - wall, poses)
+        return RallyResult(seed, list(serve.launch_state), list(record.exchanges), record.fault,
+                           capped, t, time.perf_counter() - wall, poses)
 
 
 def _percentiles(values) -> dict | None:
@@ -354,6 +357,7 @@ def run_rallies(scenario: Scenario, players: tuple[str, str], rallies: int, seed
     scenario = copy.deepcopy(scenario)
     if max_exchanges is not None:
         scenario.rally.max_exchanges = max_exchanges
+        validate(scenario, "--max-exchanges")
     scenario.launcher.run_seed = seed
     scenario = rally_scenario(scenario, start)
     seeds = [episode_seed(seed, i) for i in range(rallies)]

@@ -15,6 +15,7 @@ on screen. Each serve's drawings (paths, markers) are visible only during its se
 """
 
 import html as html_lib
+import logging
 import math
 
 import numpy as np
@@ -51,10 +52,18 @@ def make_meshcat():
 
     ``DRAKE_ALLOW_NETWORK`` is left alone: restricting it to ``meshcat`` makes every ``Parser``
     fail at construction in pydrake 1.51 (its package map registers the remote ``drake_models``),
-    and our models reference no remote package."""
+    and our models reference no remote package. Nothing is served to a browser from it, so
+    Drake's "Meshcat listening for connections" line (logged at info level as the server starts)
+    is not shown: it would point at a server that stops with the command."""
     from pydrake.geometry import Meshcat, MeshcatParams
 
-    meshcat = Meshcat(MeshcatParams(host="localhost"))
+    drake_log = logging.getLogger("drake")
+    level = drake_log.level
+    drake_log.setLevel(logging.WARNING)
+    try:
+        meshcat = Meshcat(MeshcatParams(host="localhost"))
+    finally:
+        drake_log.setLevel(level)
     meshcat.SetProperty("/Background", "visible", False)
     meshcat.SetCameraPose(list(CAMERA_POSITION), list(CAMERA_TARGET))
     return meshcat

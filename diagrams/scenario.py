@@ -17,11 +17,13 @@ from typing import Any
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
 from tt_drake.camera_model import CameraConfig
+from tt_drake.constants import MAX_EXCHANGES
 from tt_drake.rally_rules import RallyConfig
 from tt_drake.referee_rules import RefereeConfig
 from tt_drake.systems.aerodynamics import AerodynamicsConfig
 from tt_drake.systems.ball_launcher import LauncherConfig
-from tt_drake.systems.world import WorldConfig
+from tt_drake.systems.world import WorldConfig, is_explicit_path, model_path
+from tt_drake.wam_params import EFFORT_LIMIT
 
 
 def _zeros7() -> list[float]:
@@ -52,8 +54,8 @@ class ControllerConfig:
 
     def problems(self) -> list[str]:
         """What is wrong with the values: the ``controller.*`` rules of :data:`FIELD_RULES`
-        (seven finite values per joint list, gains, friction and noise >= 0, kp and kd > 0,
-        scales in [0.1, 10], coulomb_velocity > 0)."""
+        (seven finite values per joint list, gains >= 0, kp and kd > 0, friction and noise in
+        [0, the joint's effort limit], scales in [0.1, 10], coulomb_velocity in [0.01, 10])."""
         return rule_problems(self, "controller")
 
 
@@ -108,10 +110,24 @@ class ScenarioError(ValueError):
 
 
 def scenario_path(name_or_path: str) -> Path:
+    """A scenario file: a ``.yaml`` (``.yml``) file or a path with a folder part
+    (:func:`is_explicit_path`) as given; any other name is ``models/<name>.yaml`` of the package
+    (a file of that name in the working folder is not looked at)."""
     path = Path(name_or_path)
-    if path.suffix in (".yaml", ".yml") or path.exists():
+    if path.suffix in (".yaml", ".yml") or is_explicit_path(name_or_path):
         return path
     return Path(str(resources.files("tt_drake.models").joinpath(f"{name_or_path}.yaml")))
+
+
+def resolve_model_paths(scenario: Scenario) -> None:
+    """Replace each model file given as a path by its absolute path, so that the scenario a run
+    records (its JSON) names the file that was played, wherever the run is replayed from; bare
+    names stay, they name the package's files."""
+    models = scenario.world.models
+    for kind in ("table", "ball") + (("robot",) if scenario.world.with_robot else ()):
+        name = getattr(models, kind)
+        if name and is_explicit_path(name):
+            setattr(models, kind, str(model_path(name)))
 
 
 def load_scenario(name_or_path: str = "default") -> Scenario:
@@ -130,6 +146,7 @@ def load_scenario(name_or_path: str = "default") -> Scenario:
         message = " ".join(str(err).split())
         raise ScenarioError(f"invalid scenario {path}: {message}") from None
     validate(scenario, path)
+    resolve_model_paths(scenario)
     return scenario
 
 
@@ -164,14 +181,15 @@ def number(minimum: float | None = None, maximum: float | None = None,
     return check
 
 
-def each(size: int, element: Check) -> Check:
-    """A list of ``size`` values, each passing ``element``."""
+def each(size: int, element: Check | list[Check]) -> Check:
+    """A list of ``size`` values, each passing ``element`` (or the i-th its own ``element[i]``)."""
+    elements = element if isinstance(element, list) else [element] * size
 
     def check(values):
         if len(values) != size:
             return f"needs {size} values (got {len(values)})"
-        for i, value in enumerate(values):
-            problem = element(value)
+        for i, (value, rule) in enumerate(zip(values, elements, strict=True)):
+            problem = rule(value)
             if problem:
                 return f"[{i}] {problem}"
         return None
@@ -221,6 +239,16 @@ def check_model_file(name: str) -> str | None:
 
 
 MAX_RATE = 10_000.0  # Hz: a referee (and its arm loggers) faster than this is no table-tennis rate
+# Joint friction and torque noise of the simulated arm, per joint, at most the joint's effort
+# limit: Coulomb friction (or noise) beyond it holds the joint against every torque its motor can
+# give, and viscous friction b with b (1 rad/s) beyond it stops every stroke (strokes move the
+# joints at several rad/s). The smoothing velocity v_s of -c tanh(v / v_s) lies in
+# [0.01, 10] rad/s (joint friction models smooth the sign change over 0.01-0.1 rad/s): the
+# friction's slope at rest, c / v_s, makes the arm's equations stiff, and the integrator's error
+# control shrinks its steps in proportion to v_s (docs/robustness.md); above 10 rad/s it is
+# viscous friction. (N m, and N m s/rad for the viscous part.)
+JOINT_FRICTION = each(7, [number(minimum=0.0, maximum=limit) for limit in EFFORT_LIMIT])
+COULOMB_VELOCITY_RANGE = (0.01, 10.0)  # rad/s
 
 FIELD_RULES: dict[str, Check] = {
     "world.plant.time_step": number(minimum=0.0, maximum=0.01),
@@ -256,17 +284,18 @@ FIELD_RULES: dict[str, Check] = {
     "rally.target_y": number(above=0.0),
     "rally.flight_times": lambda v: (None if v and all(number(above=0.0)(t) is None for t in v)
                                      else "needs one or more numbers > 0"),
-    "rally.max_exchanges": number(minimum=1),
-    "rally.exchange_timeout": number(above=0.0),
+    "rally.max_exchanges": number(minimum=1, maximum=MAX_EXCHANGES),
+    "rally.exchange_timeout": number(above=0.0, maximum=60.0),
     "controller.kp": each(7, number(minimum=0.0, above=0.0)),
     "controller.ki": each(7, number(minimum=0.0)),
     "controller.kd": each(7, number(minimum=0.0, above=0.0)),
     "controller.mass_scale": number(minimum=0.1, maximum=10.0),
     "controller.inertia_scale": number(minimum=0.1, maximum=10.0),
-    "controller.joint_viscous": each(7, number(minimum=0.0)),
-    "controller.joint_coulomb": each(7, number(minimum=0.0)),
-    "controller.coulomb_velocity": number(above=0.0),
-    "controller.torque_noise": each(7, number(minimum=0.0)),
+    "controller.joint_viscous": JOINT_FRICTION,
+    "controller.joint_coulomb": JOINT_FRICTION,
+    "controller.coulomb_velocity": number(minimum=COULOMB_VELOCITY_RANGE[0],
+                                          maximum=COULOMB_VELOCITY_RANGE[1]),
+    "controller.torque_noise": JOINT_FRICTION,
     "after_crossing": number(above=0.0, maximum=60.0),
 }
 

@@ -32,7 +32,7 @@ class BallCamera(LeafSystem):
         self.config = config or CameraConfig()
         self.model = CameraModel(self.config)
         self._lat = self.config.latency_frames
-        self._draws_cache: tuple[int, object] | None = None
+        self._draws_cache: tuple[tuple[int, int], object] | None = None
         self._ball = self.DeclareVectorInputPort("ball_state", 13)
         self._seed_index = self.DeclareNumericParameter(BasicVector([0.0]))
         initial = np.array([0.0, *_NO_FRAME, *(_NO_FRAME * self._lat)])
@@ -47,16 +47,17 @@ class BallCamera(LeafSystem):
     def seed(self, context) -> int:
         return int(context.get_numeric_parameter(self._seed_index).GetAtIndex(0))
 
-    def _draws(self, seed: int):
-        if self._draws_cache is None or self._draws_cache[0] != seed:
-            self._draws_cache = (seed, self.model.episode_draws(seed))
+    def _draws(self, seed: int, block: int):
+        if self._draws_cache is None or self._draws_cache[0] != (seed, block):
+            self._draws_cache = ((seed, block), self.model.block_draws(seed, block))
         return self._draws_cache[1]
 
     def _update(self, context, discrete_state):
         x = context.get_discrete_state(self._xd).get_value()
         k = int(x[0])
         s = self._ball.Eval(context)
-        z = self.model.measure(self._draws(self.seed(context)), k, (s[4], s[5], s[6]))
+        block, row = self.model.block_of(k)
+        z = self.model.measure(self._draws(self.seed(context), block), row, (s[4], s[5], s[6]))
         t = context.get_time()
         frame = (*z, t, 1.0) if z is not None else (math.nan, math.nan, math.nan, t, 0.0)
         new = np.empty_like(x)

@@ -10,6 +10,7 @@ scenario: 1e-3) the accuracy is relaxed to it while nothing can touch the ball
 
 
 import math
+import os
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -33,7 +34,9 @@ def default_simulator_config() -> SimulatorConfig:
 
 @dataclass
 class ModelFiles:
-    """Model files, by name inside the package's ``models/`` folder or as paths."""
+    """Model files: a bare file name (``ball.sdf``) is the package's ``models/`` file, whatever
+    the working folder holds; a path (with a folder: ``./ball.sdf``, ``/abs/ball.sdf``) is that
+    file (:func:`model_path`)."""
 
     table: str = "table_world.sdf"
     ball: str = "ball.sdf"
@@ -61,14 +64,22 @@ class ModelFileError(FileNotFoundError):
     """A model file named by the scenario does not exist."""
 
 
+def is_explicit_path(name: str) -> bool:
+    """Whether ``name`` names a file by its path (it has a folder part: ``./ball.sdf``,
+    ``sub/ball.sdf``, an absolute path) rather than by a bare name resolved in the package."""
+    return os.path.isabs(name) or any(sep in name for sep in {"/", os.sep})
+
+
 def model_path(name: str) -> Path:
-    """Resolve a model file: an existing path as given, else a file in ``tt_drake.models``."""
-    path = Path(name)
+    """Resolve a model file: a bare name is the file of that name in ``tt_drake.models`` (a file
+    of the same name in the working folder is not looked at: ``./ball.sdf`` names that one); a
+    path (:func:`is_explicit_path`) is resolved to an absolute path."""
+    if is_explicit_path(name):
+        path = Path(name).expanduser().resolve()
+    else:
+        path = Path(str(resources.files("tt_drake.models").joinpath(name)))
     if path.is_file():
         return path
-    packaged = Path(str(resources.files("tt_drake.models").joinpath(name)))
-    if packaged.is_file():
-        return packaged
     raise ModelFileError(f"model file not found: {name}")
 
 

@@ -12,15 +12,31 @@ generator per episode (so any episode replays exactly):
 Latency: a frame captured at ``t_k`` is delivered ``latency_frames = ceil(latency * rate)`` frames
 later, carrying its capture time so the estimator can put it where it belongs.
 
-The draws of all frames of an episode are made at once (:meth:`CameraModel.episode_draws`) and
-indexed by frame number, so the Drake ``BallCamera`` and the offline pipeline in
-``diagrams/predictor.py`` produce identical measurements from the same seed.
+The draws are made ``max_frames`` frames at a time (:meth:`CameraModel.block_draws`): block b
+holds frames ``b n .. (b + 1) n - 1`` (``n = max_frames``) from its own generator, seeded by the
+episode's seed and b (block 0 by the seed alone), so an episode has frames for as long as it lasts
+whatever the rate, and frame k's draws depend on the seed, k and n only (not on how long the
+episode runs). The Drake ``BallCamera`` and the offline pipeline in ``diagrams/predictor.py``
+index them by frame number and produce identical measurements from the same seed.
+
+Ranges (:meth:`CameraConfig.problems`): rate in (0, :data:`MAX_CAMERA_RATE`], latency in
+[0, :data:`MAX_CAMERA_LATENCY`], max_frames in [1, :data:`MAX_CAMERA_FRAMES`].
 """
 
 import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
+
+#: Fastest camera (Hz). Ball-tracking cameras of table-tennis robots run at 60-1,000 Hz; each frame
+#: is a discrete update of the simulated camera and its filter, so a rate without a bound hangs.
+MAX_CAMERA_RATE = 10_000.0
+#: Longest latency (s): a frame delivered a second after its capture arrives after the ball has
+#: crossed the table (a serve flies about 1 s); every frame in flight is held in the camera's state.
+MAX_CAMERA_LATENCY = 1.0
+#: Most frames drawn per block (:meth:`CameraModel.block_draws`): about 100 bytes each, so a
+#: block is at most ~20 MB (55 min at 60 Hz, 20 s at the fastest rate; then the next block).
+MAX_CAMERA_FRAMES = 200_000
 
 
 @dataclass
@@ -36,7 +52,7 @@ class CameraConfig:
     outlier: float = 0.0
     outlier_min: float = 0.1
     outlier_max: float = 0.5
-    max_frames: int = 600  # frames drawn per episode (10 s at 60 Hz)
+    max_frames: int = 600  # frames drawn per block (10 s at 60 Hz; see the module docstring)
 
     def __post_init__(self):
         problems = self.problems()
@@ -45,8 +61,9 @@ class CameraConfig:
 
     def problems(self, prefix: str = "camera.") -> list[str]:
         """What is wrong with the values (one phrase per field, named with ``prefix``): every
-        value finite, rate > 0, sigma and latency >= 0, probabilities in [0, 1],
-        0 <= outlier_min <= outlier_max, max_frames >= 1."""
+        value finite, rate in (0, MAX_CAMERA_RATE], sigma >= 0, latency in
+        [0, MAX_CAMERA_LATENCY], probabilities in [0, 1], 0 <= outlier_min <= outlier_max,
+        max_frames a whole number in [1, MAX_CAMERA_FRAMES]."""
         out = []
         for name in ("rate", "sigma", "latency", "dropout", "outlier", "outlier_min",
                      "outlier_max"):
@@ -55,11 +72,13 @@ class CameraConfig:
                 out.append(f"{prefix}{name} must be a finite number, got {value!r}")
         if out:
             return out
-        if not self.rate > 0.0:
-            out.append(f"{prefix}rate must be > 0, got {self.rate}")
-        for name in ("sigma", "latency"):
-            if getattr(self, name) < 0.0:
-                out.append(f"{prefix}{name} must be >= 0, got {getattr(self, name)}")
+        if not 0.0 < self.rate <= MAX_CAMERA_RATE:
+            out.append(f"{prefix}rate must be in (0, {MAX_CAMERA_RATE:g}] Hz, got {self.rate}")
+        if self.sigma < 0.0:
+            out.append(f"{prefix}sigma must be >= 0, got {self.sigma}")
+        if not 0.0 <= self.latency <= MAX_CAMERA_LATENCY:
+            out.append(f"{prefix}latency must be in [0, {MAX_CAMERA_LATENCY:g}] s, got "
+                       f"{self.latency}")
         for name in ("dropout", "outlier"):
             p = getattr(self, name)
             if not 0.0 <= p <= 1.0:
@@ -67,8 +86,10 @@ class CameraConfig:
         if not 0.0 <= self.outlier_min <= self.outlier_max:
             out.append(f"{prefix}outlier_min and outlier_max must satisfy 0 <= outlier_min <= "
                        f"outlier_max, got {self.outlier_min}, {self.outlier_max}")
-        if not isinstance(self.max_frames, int) or self.max_frames < 1:
-            out.append(f"{prefix}max_frames must be an integer >= 1, got {self.max_frames!r}")
+        if (isinstance(self.max_frames, bool) or not isinstance(self.max_frames, int)
+                or not 1 <= self.max_frames <= MAX_CAMERA_FRAMES):
+            out.append(f"{prefix}max_frames must be a whole number in [1, {MAX_CAMERA_FRAMES}], "
+                       f"got {self.max_frames!r}")
         return out
 
     @property
@@ -86,9 +107,20 @@ class CameraConfig:
         return asdict(self)
 
 
+def camera_from_dict(d) -> CameraConfig:
+    """The camera settings saved with an artefact (:meth:`CameraConfig.as_dict`), checked as a
+    scenario's are: known keys, numbers, ranges. Raises ValueError naming every problem."""
+    if not isinstance(d, dict):
+        raise ValueError(f"camera settings must be a mapping, got {type(d).__name__}")
+    unknown = set(d) - set(CameraConfig.__dataclass_fields__)
+    if unknown:
+        raise ValueError(f"unknown camera settings {sorted(unknown)}")
+    return CameraConfig(**d)  # __post_init__ raises ValueError with the problems
+
+
 @dataclass(frozen=True)
 class EpisodeDraws:
-    """Random draws of one episode, one row per frame."""
+    """Random draws of one block of an episode's frames, one row per frame."""
 
     dropped: np.ndarray  # (F,) bool
     noise: np.ndarray  # (F, 3) measurement error added to the true position (m)
@@ -101,10 +133,16 @@ class CameraModel:
         self.config = config or CameraConfig()
 
     def episode_draws(self, seed: int) -> EpisodeDraws:
-        """All random draws of the episode with ``seed`` (a pure function of the seed)."""
+        """The random draws of the first ``max_frames`` frames of the episode with ``seed``."""
+        return self.block_draws(seed, 0)
+
+    def block_draws(self, seed: int, block: int) -> EpisodeDraws:
+        """The random draws of frames ``block n .. (block + 1) n - 1`` (``n = max_frames``) of
+        the episode with ``seed``: a pure function of the seed and the block."""
         c = self.config
         n = c.max_frames
-        rng = np.random.default_rng(np.random.SeedSequence([int(seed) & 0xFFFFFFFFFFFF, 60]))
+        key = [int(seed) & 0xFFFFFFFFFFFF, 60] + ([int(block)] if block else [])
+        rng = np.random.default_rng(np.random.SeedSequence(key))
         dropped = rng.random(n) < c.dropout
         noise = rng.normal(0.0, c.sigma, (n, 3))
         is_outlier = rng.random(n) < c.outlier
@@ -114,9 +152,13 @@ class CameraModel:
         noise[is_outlier] = direction[is_outlier] * radius[is_outlier, None]
         return EpisodeDraws(dropped=dropped, noise=noise)
 
+    def block_of(self, frame: int) -> tuple[int, int]:
+        """(block, row): where frame ``frame``'s draws are (:meth:`block_draws`)."""
+        return divmod(int(frame), self.config.max_frames)
+
     def measure(self, draws: EpisodeDraws, frame: int, true_position) -> tuple | None:
-        """Measurement of frame ``frame`` as a tuple (x, y, z), or None if dropped (or past the
-        drawn frames)."""
+        """Measurement of row ``frame`` of a block of draws as a tuple (x, y, z), or None if
+        dropped (or outside the block)."""
         if frame < 0 or frame >= len(draws.dropped) or draws.dropped[frame]:
             return None
         n = draws.noise[frame]
@@ -126,10 +168,13 @@ class CameraModel:
     def measure_sequence(self, seed: int, true_positions: np.ndarray) -> np.ndarray:
         """Measurements of frames 0..F-1 for true positions (F, 3): an (F, 3) array with NaN rows
         for dropped frames (delivery delay is not applied; rows are indexed by capture frame)."""
-        draws = self.episode_draws(seed)
         p = np.asarray(true_positions, dtype=float)
-        f = min(len(p), len(draws.dropped))
         z = np.full((len(p), 3), np.nan)
-        z[:f] = p[:f] + draws.noise[:f]
-        z[:f][draws.dropped[:f]] = np.nan
+        n = self.config.max_frames
+        for start in range(0, len(p), n):
+            draws = self.block_draws(seed, start // n)
+            stop = min(len(p), start + n)
+            rows = z[start:stop]  # a view: filled in place
+            rows[:] = p[start:stop] + draws.noise[:stop - start]
+            rows[draws.dropped[:stop - start]] = np.nan
         return z

@@ -219,3 +219,7 @@ CONTACT = Contact()
 #: per-serve results are kept for the summary, ~2 kB each).
 MAX_SEED = 2**32 - 1
 MAX_SERVES = 100_000
+#: A rally stops after at most MAX_EXCHANGES exchanges: its simulated time is bounded by
+#: (MAX_EXCHANGES + 1) exchange timeouts (about 50 min at 3 s; 50 exchanges play in ~55 s), and
+#: a recorded rally logs both arms and the ball at the referee's rate for all of it.
+MAX_EXCHANGES = 1000

@@ -57,6 +57,8 @@ FloatArray = NDArray[np.float64]
 # at first); a map is ~0.8 kB per step (at most ~0.5 MB), so 256 of them are at most ~130 MB
 # and on average ~60 MB (docs/performance.md, third pass).
 _CACHED_MAPS = 256
+# The most RK4 steps a movement's map may ask for as its minimum (``min_steps``): ~8 MB per map.
+_MAX_STEPS = 10_000
 
 
 @dataclass(frozen=True)
@@ -135,8 +137,14 @@ class HittingDMP:
             object.__setattr__(self, "alpha_h", self.alpha_z)
         if self.n_basis < 2:
             raise ValueError("n_basis must be at least 2")
+        gains = (self.alpha_z, self.alpha_y, self.beta_y, self.alpha_h, self.eta_max)
+        if not all(math.isfinite(g) for g in gains) or not math.isfinite(self.amp_eps):
+            raise ValueError("alpha_z, alpha_y, beta_y, alpha_h, amp_eps and eta_max must be "
+                             "finite")
         if not (self.alpha_z > 0 and self.alpha_y > 0 and self.beta_y > 0 and self.alpha_h > 0):
             raise ValueError("alpha_z, alpha_y, beta_y and alpha_h must be positive")
+        if self.min_steps > _MAX_STEPS:
+            raise ValueError(f"min_steps must be at most {_MAX_STEPS}")
         if not 0.0 < self.overlap < 1.0:
             raise ValueError("overlap must lie in (0, 1)")
         if self.amp_eps < 0 or self.eta_max <= 0 or self.min_steps < 1:

@@ -95,10 +95,36 @@ class EstimatorConfig:
     fd_eps: float = 1e-6  # finite-difference step of the Jacobian across a bounce (m, m/s, rad/s)
 
     def __post_init__(self):
-        if self.init_frames < 3:
-            raise ValueError("init_frames must be >= 3")
+        problems = self.problems()
+        if problems:
+            raise ValueError("; ".join(problems))
+
+    def problems(self) -> list[str]:
+        """What is wrong with the values: noise densities, standard deviations and steps finite
+        and > 0 (the filter divides by them or takes their logarithm), gate_probability in
+        (0, 1), init_inflation finite and >= 1, init_frames a whole number in [3, 60] (a
+        second at 60 Hz) and max_rejections one in [0, 60]."""
+        out = []
+        for name, value in asdict(self).items():
+            if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                    or not math.isfinite(value):
+                out.append(f"{name} must be a finite number, got {value!r}")
+        if out:
+            return out
+        for name in ("meas_sigma", "accel_noise", "spin_noise", "spin_sigma0",
+                     "bounce_velocity_sigma", "bounce_spin_sigma", "hypothesis_velocity_sigma",
+                     "hypothesis_spin_sigma", "model_dt", "fd_eps"):
+            if not getattr(self, name) > 0.0:
+                out.append(f"{name} must be > 0, got {getattr(self, name)}")
         if not 0.0 < self.gate_probability < 1.0:
-            raise ValueError("gate_probability must be in (0, 1)")
+            out.append(f"gate_probability must be in (0, 1), got {self.gate_probability}")
+        if not self.init_inflation >= 1.0:
+            out.append(f"init_inflation must be >= 1, got {self.init_inflation}")
+        for name, low in (("init_frames", 3), ("max_rejections", 0)):
+            value = getattr(self, name)
+            if not (isinstance(value, int) and low <= value <= 60):
+                out.append(f"{name} must be a whole number in [{low}, 60], got {value!r}")
+        return out
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -114,7 +140,10 @@ def config_from_dict(d: dict) -> EstimatorConfig:
     before the filter carried spin has no ``spin_sigma0``: it gets :data:`SPINLESS_PRIOR`, so that
     an artefact learnt on the spinless filter's (p, v) estimates (the shipped GPR predictor) is
     fed the same estimates. The numerical settings ``model_dt`` and ``fd_eps`` (which change the
-    estimates by ~1e-9) are this code's. Unknown keys raise ValueError."""
+    estimates by ~1e-9) are this code's. Unknown keys, values that are no numbers and values out
+    of range (:meth:`EstimatorConfig.problems`) raise ValueError."""
+    if not isinstance(d, dict):
+        raise ValueError(f"estimator settings must be a mapping, got {type(d).__name__}")
     fields = set(EstimatorConfig.__dataclass_fields__)
     unknown = set(d) - fields
     if unknown:

@@ -46,7 +46,9 @@ import numpy as np
 
 from tt_drake.artefacts import ArtefactError, load_artefact, save_artefact
 from tt_drake.ball_model import BallModel, CompliantBounceBallModel
+from tt_drake.camera_model import CameraConfig, camera_from_dict
 from tt_drake.constants import PLANES
+from tt_drake.estimation import EstimatorConfig, config_from_dict
 
 N_OBSERVATIONS = 4
 FEATURE_SIZE = 6 * N_OBSERVATIONS
@@ -170,6 +172,9 @@ class HittingPointGPR:
         self.exact_value = float(exact_value)
         self.info = info or {}
         self.feature_set = feature_set
+        # The perception it was trained on, when saved with it (checked by :meth:`load`).
+        self.camera: CameraConfig | None = None
+        self.estimator: EstimatorConfig | None = None
         # Pre-scaled training inputs per output: X / l, and their squared norms.
         self._xs = self.train_x[None, :, :] / self.length_scales[:, None, :]  # (6, n, d)
         self._xs2 = np.einsum("knd,knd->kn", self._xs, self._xs)
@@ -324,12 +329,34 @@ class HittingPointGPR:
         exact = meta.get("exact_value")
         if isinstance(exact, bool) or not isinstance(exact, (int, float)) or not np.isfinite(exact):
             raise PredictorFileError(f"{path}: exact_value must be a finite number")
+        camera, estimator = _perception_from_meta(path, meta)
         gpr = cls(arrays["x_mean"], arrays["x_scale"], arrays["train_x"],
                   arrays["length_scales"], arrays["signal_var"], arrays["alpha"],
                   arrays["y_mean"], arrays["y_scale"], exact_value=meta.get("exact_value"),
                   info=meta.get("info", {}), feature_set=feature_set)
         gpr.meta = meta
+        gpr.camera, gpr.estimator = camera, estimator
         return gpr
+
+
+def _perception_from_meta(path, meta: dict) -> tuple[CameraConfig | None, EstimatorConfig | None]:
+    """The saved camera and estimator settings (None where not saved), checked as a scenario's
+    are, and the metadata that names the training run: ``train_seed`` a whole number >= 0,
+    ``distribution`` a string. Raises PredictorFileError with one line."""
+    seed = meta.get("train_seed")
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
+        raise PredictorFileError(f"{path}: train_seed must be a whole number >= 0 (got {seed!r})")
+    if not isinstance(meta.get("distribution", ""), str):
+        raise PredictorFileError(f"{path}: distribution must be a string (got "
+                                 f"{meta['distribution']!r})")
+    out = []
+    for key, parse in (("camera", camera_from_dict), ("estimator", config_from_dict)):
+        try:
+            out.append(parse(meta[key]) if key in meta else None)
+        except (TypeError, ValueError) as err:
+            raise PredictorFileError(f"{path}: its saved {key} settings are invalid: "
+                                     f"{' '.join(str(err).split())}") from None
+    return out[0], out[1]
 
 
 # -- metrics -------------------------------------------------------------------------------------

@@ -348,6 +348,33 @@ class LearnedArtefactError(ArtefactError):
     """A learned-player artefact that is missing, corrupt, or trained for another scenario."""
 
 
+# The physical range of each array of a primitive library, (low, high), checked at load (finite
+# values alone let an all-1e300 library through, which overflows in the first roll-out):
+# amplitudes are joint-angle differences of a demonstration (less than a turn); stage durations
+# at most 10 s (an episode lasts a few); the forcing weights act in normalised time, a
+# weight w asks ~w / tau^2 rad/s^2 of the arm, and 1e5 is far past any joint's reach at any
+# stage's tau (the WAM's joints reach hundreds of rad/s^2); stimuli are positions (m),
+# velocities (m/s) and spins (rad/s) of the ball; responsibilities gamma lie in [0, 1]; the
+# bandwidths are kernel widths in the stimulus' units, and s, n sums of rewards and counts.
+LIBRARY_RANGES = {
+    "weights": (-1e5, 1e5), "amplitude": (-2 * math.pi, 2 * math.pi),
+    "stimuli": (-1e4, 1e4), "bandwidths": (0.0, 1e4), "gamma": (0.0, 1.0),
+    "s": (0.0, 1e9), "n": (0.0, 1e9),
+    **{f"{key}_{name}": bounds for key in ("preparation", "follow_through", "awaiting")
+       for name, bounds in (("weights", (-1e5, 1e5)), ("amplitude", (-2 * math.pi, 2 * math.pi)),
+                            ("tau", (1e-3, 10.0)))}}
+
+
+def _check_ranges(path, arrays: dict, ranges: dict) -> None:
+    """Raise LearnedArtefactError naming the first array with a value outside its range."""
+    for name, (low, high) in ranges.items():
+        a = arrays.get(name)
+        if a is not None and a.size and not (a.min() >= low and a.max() <= high):
+            raise LearnedArtefactError(f"{path}: array {name!r} holds values outside its "
+                                       f"physical range [{low:g}, {high:g}] (min {a.min():g}, "
+                                       f"max {a.max():g})")
+
+
 def _check_meta(path, meta: dict, scenario: str | None, hitting_y: float | None) -> None:
     version = meta.get("learned_format_version")
     if version != LEARNED_FORMAT_VERSION:
@@ -399,6 +426,7 @@ def load_player_library(path, scenario: str | None = None, hitting_y: float | No
     except ArtefactError as err:
         raise LearnedArtefactError(f"primitive library: {err}") from None
     _check_meta(path, meta, scenario, hitting_y)
+    _check_ranges(path, arrays, LIBRARY_RANGES)
     try:
         dmp = HittingDMP.from_dict(meta["dmp"])
         library = MotorPrimitiveLibrary(
@@ -415,8 +443,6 @@ def load_player_library(path, scenario: str | None = None, hitting_y: float | No
                 raise ValueError("stage DMP weights do not match the library's")
             if prim.amplitude.shape != library.amplitude.shape[1:]:
                 raise ValueError("stage DMP amplitudes do not match the library's")
-            if not (math.isfinite(prim.tau) and prim.tau > 0):
-                raise ValueError("stage durations must be finite and > 0")
     except (KeyError, TypeError, ValueError) as exc:
         raise LearnedArtefactError(f"{path}: inconsistent primitive library ({exc})") from None
     return library, stages, meta

@@ -207,12 +207,24 @@ _STATE_KEYS = ("pos_x", "pos_y", "pos_z", "vel_x", "vel_y", "vel_z",
                "w_vel_x", "w_vel_y", "w_vel_z")
 
 
+#: The largest ball-state file read (bytes): the shipped ones hold 0.8 and 3.7 MB (about 200
+#: bytes a ball); reading stops past this, so a huge or endless file ($TT_DRAKE_SERVES=/dev/zero)
+#: is one line, not an exhausted memory.
+MAX_BALL_STATE_BYTES = 64 << 20
+
+
 def load_ball_states(path: Path) -> tuple[np.ndarray | None, np.ndarray]:
-    """The records of a ball-state file (``serves.json`` or ``rallies.json``): their ids (None if
-    the file has none) and their states as an (N, 9) array in the world frame."""
+    """The records of a ball-state file (``serves.json`` or ``rallies.json``, at most
+    :data:`MAX_BALL_STATE_BYTES`): their ids (None if the file has none) and their states as an
+    (N, 9) array in the world frame."""
     path = Path(path)
     try:
-        records = json.loads(path.read_text())
+        with open(path, "rb") as f:
+            data = f.read(MAX_BALL_STATE_BYTES + 1)
+        if len(data) > MAX_BALL_STATE_BYTES:
+            raise ServeError(f"ball-state file {path} is larger than {MAX_BALL_STATE_BYTES} "
+                             "bytes")
+        records = json.loads(data.decode("utf-8"))
     except FileNotFoundError:
         raise ServeError(f"ball-state file not found: {path} (set TT_DRAKE_SERVES or "
                          "TT_DRAKE_RALLIES)") from None
