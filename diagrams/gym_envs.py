@@ -4,51 +4,83 @@ Both are runners (DESIGN.md): they build the serve diagram of
 :class:`tt_drake.diagrams.episodes.ServeDiagram` once, with a player that lets an agent act, and
 run serve episodes on it. Options (keyword arguments of ``gymnasium.make``): ``scenario`` (a
 name in models/, a YAML path or a :class:`Scenario`), ``distribution`` (overrides the launcher's
-serve distribution: ``default``, ``real`` or ``fixed``). ``reset(seed=...)`` seeds the
-environment's generator, which draws the serve's seed (camera noise included, as
-``ServeDiagram.run``); ``reset(options={"serve_seed": k})`` replays serve ``k`` whatever the
-generator says. The same seed gives the same observation, and the same actions the same reward.
+serve distribution: ``default``, ``spin``, ``real``, ``fixed``, ...), ``reward`` (``referee``,
+the default, or ``shaped``), ``render_mode`` (None, ``rgb_array`` or ``human``) and ``html``
+(the ``human`` page's path). ``reset(seed=...)`` seeds the environment's generator, which draws
+the serve's seed (camera noise included, as ``ServeDiagram.run``); ``reset(options={"serve_seed":
+k})`` replays serve ``k`` whatever the generator says. The same seed gives the same observation,
+and the same actions the same reward. Spaces are float32. An action with a NaN or infinite entry
+raises ValueError naming the action, in both environments, before anything is simulated.
 
 ``tt_drake/ReturnBall-v0`` (:class:`ReturnBallEnv`): episodic, one serve per episode and one
-step per episode, in the black-box style of fancy_gym's table-tennis tasks. The analytical player
-(the teacher) tracks the ball and plans its stroke; ``reset`` simulates until it commits to the
-stroke (the planning tick at which the hitting stage has begun: it re-plans no more, paper
-section III-A) and returns what it then knows. ``step(action)`` changes the stroke's end, plays
-it and the rest of the episode, and returns the paper's reward; ``terminated`` is always True.
+step per episode, in the black-box style of fancy_gym's table-tennis tasks. ``action`` chooses
+the mode:
+
+``"offset"`` (default): the analytical player (the teacher) tracks the ball and plans its
+stroke; ``reset`` simulates until it commits to the stroke (the planning tick at which the
+hitting stage has begun: it re-plans no more, paper section III-A) and returns what it then
+knows. ``step(action)`` changes the stroke's end, plays it and the rest of the episode, and
+returns the paper's reward; ``terminated`` is always True.
 
 - observation (10): the predicted hitting point p_hit (m, world frame), the ball's velocity there
   v_hit (m/s), the time left until the hit t_hit - t (s), and the spin the planner predicts there
-  omega_hit (rad/s; the estimator sees no spin, so today this is the spin the table bounce gives
-  a ball served without spin; it carries an estimated spin once the planner gets one).
+  omega_hit (rad/s).
 - action (14) in [-1, 1]: the offset to the analytical hitting configuration,
   theta_hit += a[:7] * max_position_offset (rad, default 0.1) and
-  theta_dot_hit += a[7:] * max_velocity_offset (rad/s, default 1.0), clipped to the joint limits.
-  An action of zeros plays the analytical player's stroke, bit for bit.
+  theta_dot_hit += a[7:] * max_velocity_offset (rad/s, default 1.0), clipped to the joint limits
+  (both bounds finite and > 0). An action of zeros plays the analytical player's stroke, bit for
+  bit.
+
+``"absolute"``: learning from scratch, no teacher inside
+(:class:`tt_drake.systems.gym_players.AbsoluteStrokePlayer`). The arm waits at the awaiting
+posture; ``reset`` simulates until the estimator's ball has crossed the net toward the robot and
+returns the estimate and the hittable window (:func:`tt_drake.systems.gym_players.hittable_window`:
+from the bounce on the robot's half to where the ball comes down to the table's height again, so
+that it bounces once on the robot's half before the hit). The action chooses the whole stroke's
+end, which the stage planner plays from the awaiting posture (swing-back, hit, follow-through,
+return).
+
+- observation (18): the estimated ball p (m), v (m/s), spin (rad/s); the window's start and end
+  from now (s); the predicted crossing of the virtual hitting plane inside the window: p, v and
+  its time from now (zeros if it is not in the window).
+- action (15) in [-1, 1]: theta_hit = centre + a[:7] * half range of each joint (its limits
+  less the planner's 0.05 rad margin), theta_dot_hit = a[7:14] * velocity limit (10 rad/s),
+  t_hit = start + (a[14] + 1) / 2 * (end - start) in the window.
+
+Both modes:
+
 - reward: the referee's (:mod:`tt_drake.referee_rules`): 0 missed, 0.2 hit but not returned,
   0.3 + 0.7 exp(-d^2 / (2 sigma^2)) for a legal return landing d from the target, at most 0.1 if
-  the robot touched the table.
+  the robot touched the table. With ``reward="shaped"``: the same for a hit, and for a missed
+  ball SHAPING_MAX exp(-d^2 / (2 SHAPING_SIGMA^2)) (at most 0.1) of the closest racket-centre-to-
+  ball distance d on the robot's half, also in ``info["closest_approach"]``.
 - ``info["is_success"]``: the return landed on the opponent's half within ``target_radius``
   (0.2 m) of the target (fancy_gym's definition); ``info["outcome"]`` the referee's verdict.
 
-If the player never commits (it found no stroke it could play), ``reset`` has already simulated
-the whole episode: the observation is zeros, ``info["committed"]`` is False and ``step`` returns
-the outcome without playing the action.
+If the player never decides (offset: it found no stroke it could play; absolute: no window),
+``reset`` has already simulated the whole episode: the observation is zeros,
+``info["committed"]`` is False and ``step`` returns the outcome without playing the action.
 
 ``tt_drake/ReturnBallStep-v0`` (:class:`ReturnBallStepEnv`): step-based, on Drake's
 ``pydrake.gym.DrakeGymEnv``. The agent moves the arm's joint set-points at ``control_rate`` Hz
-(default 100) through :class:`tt_drake.systems.gym_players.SetpointIncrementPlayer`; the
-InverseDynamicsController tracks them as it tracks the players'. A step's action takes effect one
-servo tick (2 ms) into the step and lasts one control period.
+(default 100; finite, >= 50 and a divisor of the servo rate) through
+:class:`tt_drake.systems.gym_players.SetpointIncrementPlayer`; the InverseDynamicsController tracks
+them as it tracks the players'. A step's action takes effect one servo tick (2 ms) into the step
+and lasts one control period.
 
 - observation (22): the arm's state q (rad), q_dot (rad/s); the estimator's ball state p (m),
   v (m/s) (zeros until it tracks the ball), its status: tracking (0/1) and the time of the
   estimate (s, episode time).
 - action (7) in [-1, 1]: set-point increments, a * (velocity limit / control_rate) rad per step.
-- reward: 0 on every step but the last, which gets the paper's reward (as above); the episode
-  terminates when the referee decides the outcome (the return landed, hit the net or fell; a
-  missed ball at the floor) and is truncated at the predicted crossing of the hitting plane plus
-  ``Scenario.after_crossing`` (the serve episode's end). ``info`` holds ``is_success`` and
-  ``outcome`` on the last step.
+- reward: 0 on every step but the last, which gets the episode's reward (as above, ``referee``
+  or ``shaped``); the episode terminates when the referee decides the outcome (the return landed,
+  hit the net or fell; a missed ball at the floor) and is truncated at the predicted crossing of
+  the hitting plane plus ``Scenario.after_crossing`` (the serve episode's end). ``info`` holds
+  ``is_success`` and ``outcome`` on the last step.
+
+Rendering (:mod:`tt_drake.diagrams.gym_render`, observation only): ``rgb_array`` renders the
+arm and the ball as they are now with Drake's VTK engine, offscreen; ``human`` adds every
+finished episode to a Meshcat recording that ``render()`` (and nothing else) writes to ``html``.
 """
 
 from __future__ import annotations
