@@ -257,8 +257,8 @@ class _ServeEnv:
 
     def render(self):
         """``rgb_array``: the arm and the ball now, (H, W, 3) uint8 (:class:`FrameRenderer`);
-        ``human``: writes the Meshcat page of the episodes so far to ``html`` and returns its
-        path (None before the first episode ends); no render mode: None."""
+        ``human``: writes the Meshcat page of the episodes so far to ``html`` (nothing before
+        the first episode ends) and returns None, as Gymnasium asks; no render mode: None."""
         if self.render_mode == "rgb_array":
             if self._renderer is None:
                 self._renderer = FrameRenderer(self.scenario.world)
@@ -267,7 +267,7 @@ class _ServeEnv:
             return self._renderer.frame(world.plant.GetPositions(plant_context, world.robot),
                                         world.plant.GetPositions(plant_context, world.ball))
         if self.render_mode == "human" and self._pages is not None:
-            return self._pages.write()
+            self._pages.write()
         return None
 
 

@@ -93,9 +93,9 @@ class EpisodePages:
     def add(self, result: EpisodeResult, poses: tuple) -> None:
         self.episodes.append((result, poses))
 
-    def write(self) -> str:
+    def write(self) -> None:
         """Write the page of every episode so far (a new recording each time, so that it can be
-        written again with more episodes). Returns the path."""
+        written again with more episodes)."""
         recording = Recording(self.scenario)
         for i, (result, poses) in enumerate(self.episodes):
             recording.add(i, result, poses)
@@ -104,4 +104,3 @@ class EpisodePages:
                 "seed": results[0].seed if results else 0, "summary": summarize(results),
                 "episodes": [r.as_dict() for r in results]}
         write_text_atomic(self.path, recording.html(data))
-        return self.path
