@@ -52,8 +52,8 @@ Both modes:
 - reward: the referee's (:mod:`tt_drake.referee_rules`): 0 missed, 0.2 hit but not returned,
   0.3 + 0.7 exp(-d^2 / (2 sigma^2)) for a legal return landing d from the target, at most 0.1 if
   the robot touched the table. With ``reward="shaped"``: the same for a hit, and for a missed
-  ball SHAPING_MAX exp(-d^2 / (2 SHAPING_SIGMA^2)) (at most 0.1) of the closest racket-centre-to-
-  ball distance d on the robot's half, also in ``info["closest_approach"]``.
+  ball SHAPING_MAX exp(-d / SHAPING_LENGTH) (at most 0.1) of the closest racket-centre-to-ball
+  distance d on the robot's half, also in ``info["closest_approach"]``.
 - ``info["is_success"]``: the return landed on the opponent's half within ``target_radius``
   (0.2 m) of the target (fancy_gym's definition); ``info["outcome"]`` the referee's verdict.
 
@@ -138,10 +138,12 @@ ACTION_MODES = ("offset", "absolute")
 REWARDS = ("referee", "shaped")
 RENDER_MODES = ["rgb_array", "human"]
 #: The shaped reward of an episode whose ball the racket missed (``reward="shaped"``):
-#: SHAPING_MAX exp(-d^2 / (2 SHAPING_SIGMA^2)), d the closest racket-centre-to-ball distance on
-#: the robot's half (m). Below the referee's 0.2 for a hit, so that any hit still scores more.
+#: SHAPING_MAX exp(-d / SHAPING_LENGTH), d the closest racket-centre-to-ball distance on the
+#: robot's half (m). Below the referee's 0.2 for a hit, so that any hit still scores more. An
+#: exponential, not a Gaussian: its slope is still 1/e^4 of the peak's at 1 m, where a random
+#: stroke's racket passes (a Gaussian of the blade's width is flat there).
 SHAPING_MAX = 0.1
-SHAPING_SIGMA = 0.15  # m: twice the blade's radius (76 mm)
+SHAPING_LENGTH = 0.25  # m
 
 
 def make_scenario(scenario: str | Scenario = "default", distribution: str | None = None
@@ -174,11 +176,11 @@ def checked_action(action, size: int) -> np.ndarray:
 
 
 def shaped_reward(outcome: Outcome, closest: float) -> float:
-    """The referee's reward for a hit; for a missed ball SHAPING_MAX exp(-d^2 / (2 sigma^2)),
+    """The referee's reward for a hit; for a missed ball SHAPING_MAX exp(-d / SHAPING_LENGTH),
     d = ``closest`` (m; inf: 0)."""
     if outcome.hit:
         return float(outcome.reward)
-    return SHAPING_MAX * math.exp(-0.5 * (closest / SHAPING_SIGMA) ** 2)
+    return SHAPING_MAX * math.exp(-closest / SHAPING_LENGTH)
 
 
 def _serve_seed(env: gym.Env, options: dict | None) -> int:

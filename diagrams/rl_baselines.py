@@ -26,8 +26,9 @@ player, the learned player with the paper set and with the hard set) play the sa
 ``evaluate`` checks that no evaluation serve was a training serve.
 
 Each run folder holds ``config.json``, ``progress.jsonl`` (one line per training episode: serve,
-reward, the referee's verdict, cumulative CPU seconds of the run), the policy (``model.zip``,
-SB3; ``cmaes.json``), saved every ``--checkpoint`` episodes; run the command again to continue
+reward, the referee's verdict, cumulative CPU seconds of the run), the policy (``model.zip`` and
+the observation normaliser ``vecnormalize.pkl``, SB3; ``cmaes.json``), saved every
+``--checkpoint`` episodes; run the command again to continue
 from the last checkpoint (episodes after it are played again, on the same serves).
 """
 
@@ -144,6 +145,7 @@ def train_sb3(args) -> int:
     try:
         import stable_baselines3 as sb3
         from stable_baselines3.common.callbacks import BaseCallback
+        from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
     except ImportError:
         print('rl_baselines: needs Stable-Baselines3: pip install "tt-drake[rl]"', file=sys.stderr)
         return 2
@@ -154,10 +156,16 @@ def train_sb3(args) -> int:
         folder / "checkpoint.json").exists() and model_path.exists() else 0
     progress = Progress(folder)
     progress.truncate(done)
+    norm_path = folder / "vecnormalize.pkl"
     env = SeededServes(make_env(args.serves, args.reward), config["train_base"], first=done)
+    # Observations and rewards normalised by running statistics (SB3's VecNormalize): the raw
+    # observation mixes metres, m/s and spins of tens of rad/s (the MLP's tanh saturates), and a
+    # miss's shaped reward is at most 0.1.
+    venv = DummyVecEnv([lambda: env])
+    venv = VecNormalize.load(norm_path, venv) if done else VecNormalize(venv)
     cls = {"sac": sb3.SAC, "ppo": sb3.PPO}[args.algorithm]
     if done:
-        model = cls.load(model_path, env=env, seed=args.seed, device="cpu")
+        model = cls.load(model_path, env=venv, seed=args.seed, device="cpu")
         if args.algorithm == "sac" and buffer_path.exists():
             model.load_replay_buffer(buffer_path)
     else:
@@ -165,17 +173,19 @@ def train_sb3(args) -> int:
         # (log std -0.7) instead of 1, which in [-1, 1] would clip most actions to the bounds.
         kwargs = ({"n_steps": args.rollout, "batch_size": min(64, args.rollout),
                    "policy_kwargs": {"log_std_init": -0.7}} if args.algorithm == "ppo" else {})
-        model = cls("MlpPolicy", env, seed=args.seed, device="cpu", verbose=0, **kwargs)
+        model = cls("MlpPolicy", venv, seed=args.seed, device="cpu", verbose=0, **kwargs)
 
     def checkpoint(episodes: int) -> None:
         model.save(model_path)
+        venv.save(norm_path)
         if args.algorithm == "sac":
             model.save_replay_buffer(buffer_path)
         write_json_atomic(folder / "checkpoint.json", {"episodes": episodes})
 
     class Record(BaseCallback):
         def _on_step(self) -> bool:
-            for reward, info in zip(self.locals["rewards"], self.locals["infos"], strict=True):
+            rewards = venv.get_original_reward()  # the environment's, not the normalised
+            for reward, info in zip(rewards, self.locals["infos"], strict=True):
                 progress.add(info["serve_seed"], reward, info)
                 n = len(progress.lines)
                 if n % args.checkpoint == 0:
@@ -258,10 +268,13 @@ def load_policy(folder: Path, env):
         policy = LinearPolicy(mean, env.observation_space, env.action_space.shape[0])
         return lambda obs: policy(obs).astype(np.float32)
     import stable_baselines3 as sb3
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
     model = {"sac": sb3.SAC, "ppo": sb3.PPO}[config["algorithm"]].load(folder / "model.zip",
                                                                          device="cpu")
-    return lambda obs: model.predict(obs, deterministic=True)[0]
+    norm = VecNormalize.load(folder / "vecnormalize.pkl", DummyVecEnv([lambda: env]))
+    norm.training = False  # the statistics as training left them
+    return lambda obs: model.predict(norm.normalize_obs(obs), deterministic=True)[0]
 
 
 def evaluation_seeds(episodes: int) -> list[int]:

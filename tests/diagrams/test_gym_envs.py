@@ -14,8 +14,8 @@ from tt_drake import wam_params as wp
 from tt_drake.constants import BALL, PLANES, TABLE
 from tt_drake.diagrams.episodes import ServeDiagram, _analytical_player
 from tt_drake.diagrams.gym_envs import (
+    SHAPING_LENGTH,
     SHAPING_MAX,
-    SHAPING_SIGMA,
     ReturnBallEnv,
     ReturnBallStepEnv,
 )
@@ -275,7 +275,7 @@ def test_absolute_window_is_between_the_two_robot_side_contacts(absolute):
 
 
 def test_shaped_reward_grades_a_miss_by_the_closest_approach(absolute):
-    """Off by default; with ``reward="shaped"`` a miss scores SHAPING_MAX exp(-d^2/2 sigma^2)
+    """Off by default; with ``reward="shaped"`` a miss scores SHAPING_MAX exp(-d / length)
     (< 0.2, a hit's least) where the referee gives 0, and a hit the referee's reward."""
     referee = gymnasium.make("tt_drake/ReturnBall-v0", action="absolute")
     assert referee.unwrapped.reward_mode == "referee"
@@ -288,7 +288,7 @@ def test_shaped_reward_grades_a_miss_by_the_closest_approach(absolute):
     assert not info["outcome"]["hit"] and plain == 0.0 and "closest_approach" not in plain_info
     d = info["closest_approach"]
     assert 0.05 < d < 2.0
-    assert shaped == pytest.approx(SHAPING_MAX * np.exp(-0.5 * (d / SHAPING_SIGMA) ** 2))
+    assert shaped == pytest.approx(SHAPING_MAX * np.exp(-d / SHAPING_LENGTH))
     assert info["outcome"] == plain_info["outcome"]  # the shaping changes no verdict
 
 
@@ -302,7 +302,7 @@ def test_step_env_shaped_reward_on_the_last_step_only():
         done = terminated or truncated
     assert info["outcome"]["outcome"] == "missed" and rewards[:-1] == [0.0] * (len(rewards) - 1)
     d = info["closest_approach"]  # the arm held still at the awaiting posture
-    assert rewards[-1] == pytest.approx(SHAPING_MAX * np.exp(-0.5 * (d / SHAPING_SIGMA) ** 2))
+    assert rewards[-1] == pytest.approx(SHAPING_MAX * np.exp(-d / SHAPING_LENGTH))
     assert 0.0 < rewards[-1] < SHAPING_MAX
 
 

@@ -96,5 +96,8 @@ def test_ppo_run_writes_progress_and_resumes(tmp_path):
     lines = rl.read_progress(out)
     assert [x["serve_seed"] for x in lines] == [episode_seed(rl.TRAIN_BASE + 1, k)
                                                 for k in range(4)]
+    for x in lines:  # the environment's shaped reward, not VecNormalize's normalised one
+        if not x["hit"]:
+            assert x["reward"] == pytest.approx(0.1 * np.exp(-x["closest"] / 0.25), abs=2e-5)
     assert rl.main(["evaluate", str(out), "--episodes", "1"]) == 0
     assert json.loads((out / "evaluation.json").read_text())["n"] == 1
