@@ -369,7 +369,7 @@ def report(args) -> int:
                 f"{r['on_target_ci95'][1]:.1%}] | {r['hit_rate']:.1%} | {r['mean_reward']:.3f} |")
 
     runs = [Path(r) for r in args.runs]
-    fig, axes = plt.subplots(2, 1, figsize=(7.2, 6.0), dpi=90, sharex=True)
+    fig, axes = plt.subplots(3, 2, figsize=(10.0, 8.0), dpi=90, sharex="col", sharey="row")
     for folder in runs:
         config = json.loads((folder / "config.json").read_text())
         lines = read_progress(folder)
@@ -381,12 +381,14 @@ def report(args) -> int:
                             training, ev))
         if not lines:
             continue
-        w = args.window
-        x = np.arange(1, len(lines) + 1)
-        for ax, key in zip(axes, ("returned", "reward"), strict=True):
+        w = min(args.window, len(lines))
+        episodes = np.arange(1, len(lines) + 1)
+        hours = np.array([v["cpu_s"] for v in lines]) / 3600.0
+        for row, key in enumerate(("returned", "hit", "reward")):
             y = np.array([float(v[key]) for v in lines])
             smooth = np.convolve(y, np.ones(w) / w, mode="valid")
-            ax.plot(x[w - 1:], smooth, label=f"{label}: {lines[-1]['cpu_s'] / 3600:.2f} CPU-h")
+            for col, x in enumerate((episodes, hours)):
+                axes[row, col].plot(x[w - 1:], smooth, label=label)
     if args.teachers:
         for serves in sorted({json.loads((r / "config.json").read_text())["serves"]
                               for r in runs}):
@@ -394,14 +396,15 @@ def report(args) -> int:
             if path.exists():
                 for label, r in json.loads(path.read_text()).items():
                     rows.append(row(serves, label, "shipped / none", r))
-    axes[0].set_ylabel(f"legal returns (mean of {args.window})")
-    axes[1].set_ylabel(f"reward (mean of {args.window})")
-    axes[1].set_xlabel("training episode (one serve each)")
-    for ax in axes:
+    axes[0, 0].set_ylabel(f"legal returns (moving mean of {args.window})")
+    axes[1, 0].set_ylabel(f"hits (moving mean of {args.window})")
+    axes[2, 0].set_ylabel(f"training reward (moving mean of {args.window})")
+    axes[2, 0].set_xlabel("training episode (one serve each)")
+    axes[2, 1].set_xlabel("CPU-hours of the run (process time)")
+    for ax in axes.flat:
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-    axes[0].set_title("ReturnBall-v0 from scratch (action='absolute', shaped reward)",
-                      fontsize=10)
+    axes[0, 0].legend(fontsize=8)
+    fig.suptitle("ReturnBall-v0 from scratch (action='absolute', shaped reward)", fontsize=10)
     fig.tight_layout()
     if args.png:
         fig.savefig(args.png)
