@@ -326,7 +326,8 @@ def summary_line(r: dict) -> str:
 
 def teachers(args) -> int:
     """The analytical player and the learned player (paper and hard sets) on the evaluation
-    serves, with ``tt-drake serve --seed EVAL_BASE`` (its JSON per player in ``--out``)."""
+    serves, with ``tt-drake serve --seed EVAL_BASE`` (its JSON per player in ``--out``), and
+    uniform random absolute actions on the same serves; ``<out>/<serves>.json`` their rates."""
     from tt_drake.diagrams.cli import main as tt_drake
 
     folder = Path(args.out)
@@ -348,6 +349,17 @@ def teachers(args) -> int:
             raise SystemExit(f"rl_baselines: {path} did not play the evaluation serves")
         results[label] = rates(episodes)
         print(f"{label} ({args.serves}): {summary_line(results[label])}")
+    # The floor: uniform random absolute actions (seeded) on the same serves.
+    env, rng = make_env(args.serves, reward="referee"), np.random.default_rng(EVAL_BASE)
+    episodes = []
+    for serve in evaluation_seeds(args.episodes):
+        env.reset(options={"serve_seed": serve})
+        _, reward, _, _, info = env.step(rng.uniform(-1.0, 1.0, 15).astype(np.float32))
+        episodes.append({"reward": float(reward),
+                         **{k: info["outcome"][k] for k in ("hit", "returned", "on_target")}})
+    label = "random absolute actions"
+    results[label] = rates(episodes)
+    print(f"{label} ({args.serves}): {summary_line(results[label])}")
     write_json_atomic(folder / f"{args.serves}.json", results)
     return 0
 

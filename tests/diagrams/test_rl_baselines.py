@@ -101,3 +101,17 @@ def test_ppo_run_writes_progress_and_resumes(tmp_path):
             assert x["reward"] == pytest.approx(0.1 * np.exp(-x["closest"] / 0.25), abs=2e-5)
     assert rl.main(["evaluate", str(out), "--episodes", "1"]) == 0
     assert json.loads((out / "evaluation.json").read_text())["n"] == 1
+
+
+@pytest.mark.slow
+def test_teachers_play_the_evaluation_serves(tmp_path, capsys):
+    """The teachers' rows come from ``tt-drake serve --seed EVAL_BASE``: the same serves as the
+    policies' evaluation (checked by the command), and the teachers return them."""
+    assert rl.main(["teachers", "--serves", "default", "--episodes", "2", "--out",
+                    str(tmp_path)]) == 0
+    rows = json.loads((tmp_path / "default.json").read_text())
+    assert set(rows) == {*rl.TEACHERS, "random absolute actions"}
+    assert rows["analytical player"]["returned_rate"] == 1.0
+    assert all(r["n"] == 2 for r in rows.values())
+    data = json.loads((tmp_path / "default_analytical.json").read_text())
+    assert [e["seed"] for e in data["episodes"]] == rl.evaluation_seeds(2)
