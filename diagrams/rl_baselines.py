@@ -58,6 +58,13 @@ TEACHERS = {"analytical player": ["--player", "analytical"],
             "MoMP, paper set": ["--player", "momp"],
             "MoMP, hard set": ["--player", "momp", "--artefacts", "hard"]}
 
+#: The table's "training" column for the rows that are not runs.
+TRAINING = {"analytical player": "none (physical model)",
+            "MoMP, paper set": "shipped artefacts (models/learned)",
+            "MoMP, hard set": "shipped artefacts (models/learned-hard)",
+            "random absolute actions": "none"}
+NAMES = {"ppo": "PPO", "sac": "SAC", "cmaes": "CMA-ES"}
+
 
 class SeededServes(gymnasium.Wrapper):
     """Episode k (counted from ``first``) plays serve ``episode_seed(base, k)``; ``serve_seeds``
@@ -385,29 +392,29 @@ def report(args) -> int:
     for folder in runs:
         config = json.loads((folder / "config.json").read_text())
         lines = read_progress(folder)
-        label = f"{config['algorithm'].upper()} ({config['serves']}, seed {config['seed']})"
+        label = f"{NAMES[config['algorithm']]} ({config['serves']}, seed {config['seed']})"
         if (folder / "evaluation.json").exists():
             ev = json.loads((folder / "evaluation.json").read_text())
             training = f"{len(lines)} episodes, {lines[-1]['cpu_s'] / 60:.1f} CPU-min"
-            rows.append(row(config["serves"], f"{config['algorithm'].upper()} from scratch",
+            rows.append(row(config["serves"], f"{NAMES[config['algorithm']]} from scratch",
                             training, ev))
         if not lines:
             continue
         w = min(args.window, len(lines))
         episodes = np.arange(1, len(lines) + 1)
         hours = np.array([v["cpu_s"] for v in lines]) / 3600.0
-        for row, key in enumerate(("returned", "hit", "reward")):
+        for i, key in enumerate(("returned", "hit", "reward")):
             y = np.array([float(v[key]) for v in lines])
             smooth = np.convolve(y, np.ones(w) / w, mode="valid")
-            for col, x in enumerate((episodes, hours)):
-                axes[row, col].plot(x[w - 1:], smooth, label=label)
+            for j, x in enumerate((episodes, hours)):
+                axes[i, j].plot(x[w - 1:], smooth, label=label)
     if args.teachers:
         for serves in sorted({json.loads((r / "config.json").read_text())["serves"]
                               for r in runs}):
             path = Path(args.teachers) / f"{serves}.json"
             if path.exists():
                 for label, r in json.loads(path.read_text()).items():
-                    rows.append(row(serves, label, "shipped / none", r))
+                    rows.append(row(serves, label, TRAINING.get(label, ""), r))
     axes[0, 0].set_ylabel(f"legal returns (moving mean of {args.window})")
     axes[1, 0].set_ylabel(f"hits (moving mean of {args.window})")
     axes[2, 0].set_ylabel(f"training reward (moving mean of {args.window})")

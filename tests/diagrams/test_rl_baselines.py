@@ -46,10 +46,10 @@ def test_cmaes_run_resumes_on_the_same_serves_and_evaluates_on_others(tmp_path, 
     assert not {e["serve_seed"] for e in ev["episodes"]} & {x["serve_seed"] for x in lines}
     assert ev["returned_rate"] == np.mean([e["returned"] for e in ev["episodes"]])
     png = tmp_path / "curve.png"
-    assert rl.main(["report", str(out), "--png", str(png), "--window", "2"]) == 0
+    assert rl.main(["report", str(out), str(out), "--png", str(png), "--window", "2"]) == 0
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     table = capsys.readouterr().out
-    assert "| default | CMAES from scratch | 4 episodes" in table
+    assert table.count("| default | CMA-ES from scratch | 4 episodes") == 2
 
 
 def test_evaluation_refuses_a_run_that_trained_on_evaluation_serves(tmp_path):
