@@ -6,7 +6,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= out
 
-.PHONY: install test test-slow test-ray test-wheel lint demo bench reproduce reproduce-quick \
+.PHONY: install test test-slow test-ray test-rl test-wheel lint demo bench reproduce reproduce-quick \
         reproduce-quick-hard clean
 
 # setuptools notes every editable install of a package folder at the project's root ("Editable
@@ -24,7 +24,7 @@ lint: $(STAMP)
 	$(BIN)/ruff check .
 
 test: lint
-	$(BIN)/python -m pytest -m "not slow and not ray" -q
+	$(BIN)/python -m pytest -m "not slow and not ray and not rl" -q
 
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -m slow -q
@@ -37,6 +37,11 @@ test-wheel: $(STAMP)
 test-ray: $(STAMP)
 	$(BIN)/python -m pip install --quiet -e '.[ray,test]'
 	$(BIN)/python -m pytest -m ray -q
+
+# Stable-Baselines3 (and torch) for the reinforcement-learning baselines: optional, as Ray.
+test-rl: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e '.[rl,test]'
+	$(BIN)/python -m pytest -m rl -q
 
 # The learned MoMP player with the artefacts shipped in models/learned/ (made by `make
 # reproduce`; models/learned/README.md says how to regenerate them), which `serve --player momp`

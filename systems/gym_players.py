@@ -11,16 +11,42 @@ analytical player made it.
 :class:`SetpointIncrementPlayer` takes an action every control period: joint set-point
 increments. Ports: input ``increment`` (7, each in [-1, 1]); outputs ``desired_state`` (14) and
 ``desired_acceleration`` (7) for the servo holds, as the other players.
+
+:class:`AbsoluteStrokePlayer` has no teacher: it holds the awaiting posture, watches the
+estimator, and ends the simulation step at its decision point (the first planning tick at which
+the tracked ball has crossed the net toward the robot), with the *hittable window* of the ball's
+predicted path (:func:`hittable_window`). The agent then chooses the whole stroke's end
+(theta_hit, theta_dot_hit, t_hit; :meth:`AbsoluteStrokePlayer.apply_stroke`), which the stage
+planner turns into preparation, hitting, follow-through and return as it does for the teacher
+(:func:`tt_drake.stages.plan_stroke`).
 """
 
 import dataclasses
 
 import numpy as np
+from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
 
 from tt_drake import wam_params as wp
-from tt_drake.stages import AWAITING, FOLLOW_THROUGH, HITTING, Quintic, follow_through_time
-from tt_drake.systems.analytical_player import AnalyticalPlayer, Stroke, _PlayerState
+from tt_drake.ball_model import BallModel
+from tt_drake.constants import BALL, PLANES, TABLE
+from tt_drake.hitting_time import last_robot_bounce
+from tt_drake.stages import (
+    AWAITING,
+    FOLLOW_THROUGH,
+    HITTING,
+    Quintic,
+    follow_through_time,
+    plan_stroke,
+)
+from tt_drake.systems.analytical_player import (
+    AnalyticalPlayer,
+    Stroke,
+    StrokePlanner,
+    _PlayerState,
+)
+from tt_drake.systems.immutable import Immutable
+from tt_drake.systems.stage_player import StagePlanPlayer
 
 
 class StrokeOffsetPlayer(AnalyticalPlayer):
@@ -73,9 +99,161 @@ class StrokeOffsetPlayer(AnalyticalPlayer):
         plan = type(old.plan)(old.plan.segments[:index] + [
             (HITTING, hit), (FOLLOW_THROUGH, follow), (AWAITING, back)])
         new_stroke = dataclasses.replace(stroke, q_hit=q_hit, qd_hit=qd_hit)
-        state = _PlayerState(plan, new_stroke, True, old.seen)
+        state = _PlayerState(plan, new_stroke, True, old.seen, old.bounces)
         context.get_mutable_abstract_state(self._state_index).set_value(state)
         return new_stroke
+
+
+#: The window's step (s) when it follows the path from the robot-side bounce down to the table's
+#: contact height: 2 ms, about 1 cm of the ball's travel.
+WINDOW_STEP = 2e-3
+#: The longest window (s) looked for after the bounce.
+WINDOW_MAX = 1.0
+
+
+@dataclasses.dataclass(frozen=True)
+class Window:
+    """The hittable part of a predicted path, times relative to the state it was predicted from
+    (s): ``start`` the bounce on the robot's half (0 if it has bounced already), ``end`` where the
+    ball's centre comes down to the table's contact height again: its second bounce if it is
+    over the table, else below the playing surface beyond the robot's end. ``plane``: the ball's
+    state (p, v) and time where it crosses the virtual hitting plane inside the window, or None.
+    """
+
+    start: float
+    end: float
+    plane: tuple[np.ndarray, np.ndarray, float] | None
+
+
+def hittable_window(model: BallModel, state) -> Window | None:
+    """When the ball may be hit (:class:`Window`; the rules allow one bounce on the receiver's
+    half before the hit, ITTF Law 2.10.1.3), predicted from ``state`` = (p, v[, omega]) by
+    ``model``; None if the ball is not predicted to bounce on the robot's half."""
+    s = np.asarray(state, dtype=float).reshape(-1)
+    s = np.r_[s, np.zeros(3)] if s.size == 6 else s
+    if last_robot_bounce(model, s) is not None:
+        start = 0.0
+    else:
+        bounce = model.first_bounce(s)
+        if bounce is None or bounce.position[1] >= 0.0:
+            return None
+        start = bounce.t
+    # From just after the bounce, in flight (flight_step: no table) until z falls to the contact
+    # height z_c = table + r: the second bounce over the table, or under the table's height.
+    after = model.predict_time(s, start + WINDOW_STEP)
+    pos, vel, w = tuple(after.position), tuple(after.velocity), tuple(after.spin)
+    contact_z = TABLE.surface_z + BALL.radius
+    t, end = start + WINDOW_STEP, None
+    while t < start + WINDOW_MAX:
+        new_pos, new_vel = model.flight_step(pos, vel, w, WINDOW_STEP)
+        if new_pos[2] <= contact_z:  # linear interpolation inside the step
+            end = t + WINDOW_STEP * (pos[2] - contact_z) / (pos[2] - new_pos[2])
+            break
+        pos, vel, t = new_pos, new_vel, t + WINDOW_STEP
+    end = t if end is None else end
+    crossing = model.predict_plane(s, PLANES.hitting_y)
+    plane = None
+    if crossing is not None and start <= crossing.t <= end:
+        plane = (crossing.position, crossing.velocity, float(crossing.t))
+    return Window(float(start), float(end), plane)
+
+
+@dataclasses.dataclass(frozen=True)
+class AgentStroke:
+    """The stroke an agent chose: the predicted ball position at the hit (``p_hit``, for the
+    ``predicted_hit`` port), the hitting configuration and time (absolute)."""
+
+    p_hit: np.ndarray
+    q_hit: np.ndarray
+    qd_hit: np.ndarray
+    t_hit: float
+
+
+class _Decision(Immutable):
+    """The absolute player's state: its stage plan, the agent's stroke (None before it), whether
+    it has reached its decision point, and there the estimate (p, v, omega, its time) and the
+    window (absolute times; None: no window)."""
+
+    __slots__ = ("plan", "stroke", "decided", "estimate", "window")
+
+    def __init__(self, plan, stroke=None, decided=False, estimate=None, window=None):
+        self.plan, self.stroke, self.decided = plan, stroke, decided
+        self.estimate, self.window = estimate, window
+
+
+class AbsoluteStrokePlayer(StagePlanPlayer):
+    """An agent's stroke from scratch (module docstring). Inputs ``estimated_state`` (6),
+    ``estimated_spin`` (3, optional: zeros if unconnected), ``estimator_status`` (2); the
+    stage-plan player's outputs.
+
+    Decision point: the first planning tick at which the estimator tracks a ball coming toward
+    the robot (v_y < 0) whose estimate has crossed y = ``decision_y`` (default 0, the net);
+    the update then returns ``EventStatus.ReachedTermination`` so that the simulator stops for
+    the agent. ``planner``: a :class:`StrokePlanner`, of which only the parts that are not the
+    teacher's choices serve: its ball model (the window's prediction), joint limits, stage
+    durations and awaiting posture; it takes the teacher's place in the serve diagram
+    (:func:`tt_drake.diagrams.episodes.add_analytical_player` wires it with ``player_type``)."""
+
+    def __init__(self, planner: StrokePlanner | None = None, decision_y: float = 0.0,
+                 rate: float = wp.PLANNING_RATE, setpoint_lead: float = 0.0,
+                 setpoint_period: float | None = None):
+        super().__init__(setpoint_lead, setpoint_period)
+        self.planner = planner or StrokePlanner()
+        self.model, self.limits = self.planner.model, self.planner.limits
+        self.decision_y = float(decision_y)
+        self._estimate = self.DeclareVectorInputPort("estimated_state", 6)
+        self._spin = self.DeclareVectorInputPort("estimated_spin", 3)
+        self._status = self.DeclareVectorInputPort("estimator_status", 2)
+        self._state_index = self.DeclareAbstractState(
+            AbstractValue.Make(_Decision(self.planner.awaiting_plan())))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, self._update)
+
+    def player_state(self, context) -> _Decision:
+        return context.get_abstract_state(self._state_index).get_value()
+
+    def _update(self, context, state):
+        old = self.player_state(context)
+        if old.decided:
+            return EventStatus.Succeeded()
+        status = self._status.Eval(context)
+        estimate = self._estimate.Eval(context)
+        if status[0] < 0.5 or estimate[4] >= 0.0 or estimate[1] > self.decision_y:
+            return EventStatus.Succeeded()
+        spin = self._spin.Eval(context) if self._spin.HasValue(context) else np.zeros(3)
+        ball = np.r_[estimate, spin]
+        window = hittable_window(self.model, ball)
+        t_estimate = float(status[1])
+        if window is not None:
+            plane = window.plane
+            window = Window(t_estimate + window.start, t_estimate + window.end,
+                            None if plane is None else (plane[0], plane[1], t_estimate + plane[2]))
+        state.get_mutable_abstract_state(self._state_index).set_value(
+            _Decision(old.plan, None, True, (ball, t_estimate), window))
+        return EventStatus.ReachedTermination(self, "decision point: the agent's stroke")
+
+    def apply_stroke(self, context, q_hit, qd_hit, t_hit: float) -> AgentStroke:
+        """Plan the stroke that reaches (``q_hit``, ``qd_hit``) at ``t_hit`` (absolute, s) from
+        the awaiting posture: :func:`tt_drake.stages.plan_stroke` (a swing-back when there is
+        time for one, else a direct hitting segment; follow-through; return), with q_hit
+        clipped to the joint limits less their margin, qd_hit to the velocity limits and t_hit
+        to at least one planning tick ahead."""
+        old = self.player_state(context)
+        if not old.decided:
+            raise RuntimeError("the player has not reached its decision point")
+        now = context.get_time()
+        limits = self.limits
+        q_hit = limits.clip(np.asarray(q_hit, dtype=float))
+        qd_hit = np.clip(np.asarray(qd_hit, dtype=float), -limits.velocity, limits.velocity)
+        t_hit = max(float(t_hit), now + 1.0 / wp.PLANNING_RATE)
+        plan = plan_stroke(now, old.plan.evaluate(now), t_hit, q_hit, qd_hit,
+                           self.planner.q_await, limits, self.planner.config.times,
+                           preparing=False, allow_wait=False)
+        ball, t_estimate = old.estimate
+        p_hit = self.model.predict_time(ball, t_hit - t_estimate).position
+        stroke = AgentStroke(np.asarray(p_hit), q_hit, qd_hit, t_hit)
+        context.get_mutable_abstract_state(self._state_index).set_value(
+            _Decision(plan, stroke, True, old.estimate, old.window))
+        return stroke
 
 
 class SetpointIncrementPlayer(LeafSystem):

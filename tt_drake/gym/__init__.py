@@ -5,8 +5,9 @@
 
     env = gymnasium.make("tt_drake/ReturnBall-v0", distribution="default")
 
-- ``tt_drake/ReturnBall-v0``: episodic, one serve and one stroke per episode (the offset to the
-  analytical player's hitting configuration);
+- ``tt_drake/ReturnBall-v0``: episodic, one serve and one stroke per episode: the offset to the
+  analytical player's hitting configuration, or with ``action="absolute"`` the hitting
+  configuration and time from scratch (no teacher);
 - ``tt_drake/ReturnBallStep-v0``: step-based on ``pydrake.gym.DrakeGymEnv``, joint set-point
   increments at 100 Hz.
 
