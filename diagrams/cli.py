@@ -176,7 +176,10 @@ def _add_learned_options(p: argparse.ArgumentParser, artefact_sets: bool = True)
                    help="learned players: hitting configuration from the CrKR model or the "
                         "analytical IK" + (" (default: the scenario's, crkr; with --artefacts, "
                                            "the set's; the crkr player: always crkr)"
-                                           if artefact_sets else ""))
+                                           if artefact_sets else
+                                           " (default: the scenario's if it names one, else "
+                                           "analytical: the rally aims elsewhere than the "
+                                           "serve task the shipped CrKR model learned)"))
     if not artefact_sets:
         return
     p.add_argument("--artefacts", default=None, type=_one_of("artefact set", ARTEFACT_SET_NAMES),
@@ -252,8 +255,6 @@ def build_parser() -> argparse.ArgumentParser:
                        help="parallel worker processes (not with --html)")
     _add_scenario_options(rally)
     _add_learned_options(rally, artefact_sets=False)
-    # The shipped CrKR model learned the serve task's target; the rally aims elsewhere.
-    rally.set_defaults(configuration="analytical")
     rally.add_argument("--spinless-configuration", action="store_true",
                        help="learned players: the analytical hitting configuration for a "
                             "spinless ball (the serve's), instead of for the predicted spin at "
@@ -475,12 +476,16 @@ def _serve(args) -> None:
 
 def _rally(args) -> None:
     from tt_drake.diagrams.rally import format_rally_summary, run_rallies
+    from tt_drake.diagrams.scenario import sets_field
 
     players = tuple(args.players)
     for player in players:
         _check_player(player)
     args.player = None  # the shipped artefacts are chosen by _use_rally_artefacts
     scenario = _scenario(args)
+    if args.configuration is None and not sets_field(args.scenario, "learned.configuration"):
+        # The shipped CrKR model learned the serve task's target; the rally aims elsewhere.
+        scenario.learned.configuration = "analytical"
     # The other robot's returns spin: the learned players' racket follows the spinning contact
     # point unless told not to (docs/rally.md, "Spin-aware learned players").
     scenario.learned.spin_aware = not args.spinless_configuration

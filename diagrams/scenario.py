@@ -14,7 +14,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
+from pydrake.common.yaml import yaml_dump_typed, yaml_load_data, yaml_load_typed
 
 from tt_drake.camera_model import CameraConfig
 from tt_drake.constants import MAX_EXCHANGES
@@ -128,6 +128,20 @@ def resolve_model_paths(scenario: Scenario) -> None:
         name = getattr(models, kind)
         if name and is_explicit_path(name):
             setattr(models, kind, str(model_path(name)))
+
+
+def sets_field(name_or_path: str, dotted: str) -> bool:
+    """Whether the scenario file itself (not the default scenario under it) names the field
+    ``dotted`` (e.g. ``learned.configuration``): a command whose own default differs from the
+    dataclass's applies it only to a scenario that leaves the field alone. The file is assumed
+    loadable (:func:`load_scenario` first)."""
+    with open(scenario_path(name_or_path), encoding="utf-8") as f:
+        data: Any = yaml_load_data(f)
+    for key in dotted.split("."):
+        if not isinstance(data, dict) or key not in data:
+            return False
+        data = data[key]
+    return True
 
 
 def load_scenario(name_or_path: str = "default") -> Scenario:

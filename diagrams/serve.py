@@ -20,7 +20,7 @@ from tt_drake.diagrams.ceiling import (
     strategy_player,
 )
 from tt_drake.diagrams.episodes import ServeDiagram, check_run, episode_seed, summarize
-from tt_drake.diagrams.scenario import Scenario, dump_scenario
+from tt_drake.diagrams.scenario import Scenario, dump_scenario, resolve_model_paths
 from tt_drake.outputs import check_writable, write_json_atomic, write_text_atomic
 from tt_drake.provenance import run_provenance
 from tt_drake.result_fields import serve_fields
@@ -106,12 +106,16 @@ def _report(scenario: Scenario, player: str, seed: int, results: list) -> dict:
 def scenario_dict(scenario: Scenario) -> dict:
     """Every field of ``scenario`` (defaults included) as plain data. A learned artefact inside
     the installed package (the shipped ones, ``tt_drake.models``) is named relative to the
-    package, as ``tt_drake/models/learned/library.npz``, not by this machine's path to it."""
+    package, as ``tt_drake/models/learned/library.npz``, not by this machine's path to it. A model
+    file given as a path (a scenario built in Python) is recorded by its absolute path, as
+    :func:`tt_drake.diagrams.scenario.load_scenario` records it."""
     from importlib import resources
     from pathlib import Path
 
     from pydrake.common.yaml import yaml_load_data
 
+    scenario = copy.deepcopy(scenario)
+    resolve_model_paths(scenario)
     data = yaml_load_data(dump_scenario(scenario))
     models = Path(str(resources.files("tt_drake.models"))).resolve()
     learned = data["learned"]

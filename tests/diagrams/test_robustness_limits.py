@@ -303,3 +303,39 @@ def test_the_recordings_meshcat_logs_nothing():
                            "make_meshcat; make_meshcat()"], capture_output=True, text=True,
                           timeout=120, check=True)
     assert "Meshcat" not in done.stderr and done.stderr.strip() == "", done.stderr
+
+
+def _rally_scenario(monkeypatch, argv):
+    """The scenario ``tt-drake rally`` would play, without playing it."""
+    import tt_drake.diagrams.rally as rally
+
+    seen = {}
+
+    def run_rallies(scenario, *args, **kwargs):
+        seen["scenario"] = scenario
+        return {}
+
+    monkeypatch.setattr(rally, "run_rallies", run_rallies)
+    monkeypatch.setattr(rally, "format_rally_summary", lambda data: "")
+    assert main(["rally", "--players", "momp", "analytical", "--quiet", *argv]) == 0
+    return seen["scenario"]
+
+
+def test_the_rallys_configuration_default_does_not_override_a_scenarios(tmp_path, monkeypatch):
+    crkr = scenario_file(tmp_path, "learned: {configuration: crkr}\n")
+    assert _rally_scenario(monkeypatch, ["--scenario", crkr]).learned.configuration == "crkr"
+    # A scenario that names none plays the rally's default; the option wins over both.
+    assert _rally_scenario(monkeypatch, []).learned.configuration == "analytical"
+    assert _rally_scenario(monkeypatch, ["--scenario", crkr, "--configuration",
+                                         "analytical"]).learned.configuration == "analytical"
+
+
+def test_a_python_built_scenarios_model_path_is_recorded_resolved(tmp_path, monkeypatch):
+    from tt_drake.diagrams.serve import scenario_dict
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "ball.sdf").write_text(MODELS.joinpath("ball.sdf").read_text())
+    scenario = load_scenario()
+    scenario.world.models.ball = "./ball.sdf"
+    assert scenario_dict(scenario)["world"]["models"]["ball"] == str(tmp_path / "ball.sdf")
+    assert scenario.world.models.ball == "./ball.sdf"  # the caller's scenario is left as it was
