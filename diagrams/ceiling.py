@@ -4,8 +4,10 @@ A serve is **returnable** when at least one *oracle strategy* returns it legally
 strategy is the analytical player (the teacher, docs/analytical_player.md) with ``oracle``
 perception: the simulator's true ball state and spin at the camera's frames, no noise. The
 strategies differ in what a player may choose: where along the ball's path it hits (the hitting
-plane, the height band of :class:`tt_drake.hitting_time.HittingBand`, or the plane alone) and
-where on the opponent's court it aims (a legal return need not land on the target). They are
+plane, the height band of :class:`tt_drake.hitting_time.HittingBand`) and where on the
+opponent's court it aims (a legal return need not land on the target); each also has the
+teacher's fallbacks for a stroke the arm cannot make (a racket compensating half or none of the
+spin, the ball met off the blade's centre: :class:`PlannerConfig`). They are
 tried in order, each only on the serves no earlier strategy returned, so the bound costs one
 oracle episode per serve plus one per strategy for each serve the earlier ones missed.
 
@@ -17,6 +19,7 @@ player's legal returns of serves outside it, beside the plain legal return rate.
 from __future__ import annotations
 
 import copy
+import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -30,35 +33,38 @@ from tt_drake.systems.analytical_player import PlannerConfig
 @dataclass(frozen=True)
 class OracleStrategy:
     """One way the oracle teacher may play a serve: ``target`` (x, y on the opponent's half,
-    m; None: the scenario's referee target), ``band`` (None: the hitting plane only) and the
-    hitting plane ``plane_y`` (m)."""
+    m; None: the scenario's referee target), ``band`` (None: the hitting plane only), the
+    hitting plane ``plane_y`` (m) and the spin shares its strokes may compensate
+    (``PlannerConfig.stroke_spins``; None: the teacher's)."""
 
     name: str
     target: tuple[float, float] | None = None
     band: HittingBand | None = HittingBand()
     plane_y: float = PLANES.hitting_y
+    stroke_spins: tuple[float, ...] | None = None
 
     def planner_config(self, scenario: Scenario) -> PlannerConfig:
         x, y = self.target or (scenario.referee.target_x, scenario.referee.target_y)
-        return PlannerConfig(target_x=x, target_y=y, band=self.band, plane_y=self.plane_y)
+        config = PlannerConfig(target_x=x, target_y=y, band=self.band, plane_y=self.plane_y)
+        if self.stroke_spins is not None:
+            config = dataclasses.replace(config, stroke_spins=self.stroke_spins)
+        return config
 
 
 #: The strategies of the bound, in the order they are tried (module docstring): the teacher as
-#: it plays, then other aims over the opponent's half (0.35-1.1 m past the net, 0.45 m either
-#: side of the centre line), other hitting heights and the plane alone, and hitting planes
-#: 0.17 m nearer and farther.
+#: it plays (its fallbacks included: strokes compensating half or none of the spin, the ball off
+#: the blade's centre), then hitting higher or lower along the path (the height band) and on
+#: hitting planes 0.17 m nearer and farther; and strokes that ignore the spin from the start
+#: (the teacher's fallbacks reach a spin-blind stroke only after every full-spin one fails).
 STRATEGIES: tuple[OracleStrategy, ...] = (
     OracleStrategy("teacher"),
-    OracleStrategy("short-left", target=(-0.45, 0.35)),
-    OracleStrategy("short-right", target=(0.45, 0.35)),
-    OracleStrategy("long", target=(0.0, 1.1)),
-    OracleStrategy("long-left", target=(-0.45, 1.0)),
-    OracleStrategy("long-right", target=(0.45, 1.0)),
-    OracleStrategy("low-band", band=HittingBand(plane_z_min=0.4, z_min=0.55)),
     OracleStrategy("high-band", band=HittingBand(plane_z_min=0.6, z_min=0.8)),
-    OracleStrategy("plane-only", band=None),
+    OracleStrategy("low-band", band=HittingBand(plane_z_min=0.4, z_min=0.55)),
     OracleStrategy("near-plane", plane_y=PLANES.hitting_y + 0.17),
     OracleStrategy("far-plane", plane_y=PLANES.hitting_y - 0.17),
+    OracleStrategy("spin-blind", stroke_spins=(0.0,)),
+    OracleStrategy("low-band-blind", band=HittingBand(plane_z_min=0.4, z_min=0.55),
+                   stroke_spins=(0.0,)),
 )
 
 

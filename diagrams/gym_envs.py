@@ -1,6 +1,6 @@
 """Gymnasium environments over the serve diagram (registered by :mod:`tt_drake.gym`).
 
-Both are runners (DESIGN.md): they build the serve diagram of
+Both are runners (docs/design.md): they build the serve diagram of
 :class:`tt_drake.diagrams.episodes.ServeDiagram` once, with a player that lets an agent act, and
 run serve episodes on it. Options (keyword arguments of ``gymnasium.make``): ``scenario`` (a
 name in models/, a YAML path or a :class:`Scenario`), ``distribution`` (overrides the launcher's

@@ -76,6 +76,7 @@ from tt_drake.stages import (
     plan_stroke,
     within_effort,
 )
+from tt_drake.systems.hitting_ik import SHOULDER
 from tt_drake.systems.immutable import Immutable
 from tt_drake.systems.stage_player import StagePlanPlayer, remaining
 
@@ -97,6 +98,8 @@ class Stroke:
     ik_angle_error: float
     flight_time: float
     replans: int = 1
+    spin_share: float = 1.0  # of the spin the racket compensates (PlannerConfig.stroke_spins)
+    blade_offset: float = 0.0  # m, the contact's distance from the blade centre
 
 
 @dataclass(frozen=True)
@@ -123,6 +126,13 @@ class PlannerConfig:
     flight_times: tuple[float, ...] = FLIGHT_TIMES
     # The virtual hitting plane y (m; paper section III-A).
     plane_y: float = PLANES.hitting_y
+    # Fallbacks for a stroke the arm cannot make (tried in order, each share with each offset):
+    # the shares of the predicted spin at impact the stroke compensates, in the aim's flight and
+    # the racket law (docs/spin.md; less asks for a smaller racket tilt and speed change), and
+    # the offsets (m) of the contact from the blade centre toward the shoulder, within the face
+    # (the blade is 76 mm in radius, the ball 20 mm): docs/analytical_player.md, "Fallbacks".
+    stroke_spins: tuple[float, ...] = (1.0, 0.5, 0.0)
+    blade_offsets: tuple[float, ...] = (0.0, 0.03, 0.06)
 
 
 #: How much larger than the table the planner's model takes it (m): the launcher serves only onto
@@ -133,7 +143,7 @@ TABLE_EDGE_PRIOR = 0.05
 #: The planner's ball-model step (s). Its RK4 steps locate the bounces and the hitting plane
 #: exactly within a step, so the step sets only the integration error: from the states the
 #: player predicts from, 10 ms gives the same stimulus as 2 ms to ~2e-9 m and ~4e-10 s
-#: (docs/performance.md, "Seventh pass") in a fifth of the steps, and a prediction is most of
+#: (docs/performance.md, "The teacher") in a fifth of the steps, and a prediction is most of
 #: what the teacher computes per camera frame.
 PREDICTION_STEP = 0.01
 #: The step (s) of the test for a bounce behind the ball (``hitting_time.last_robot_bounce``,
@@ -147,6 +157,21 @@ def planner_ball_model(dt: float = PREDICTION_STEP) -> BallModel:
         params, table_half_length=params.table_half_length + TABLE_EDGE_PRIOR,
         table_half_width=params.table_half_width + TABLE_EDGE_PRIOR)
     return CompliantBounceBallModel(params, dt=dt)
+
+
+def blade_centre(p_hit, normal, contact_offset: float, offset: float = 0.0) -> np.ndarray:
+    """Where the blade centre must be for the ball's centre ``p_hit`` to touch the face with
+    unit ``normal``: p_hit - (R + t/2) n, moved ``offset`` (m) within the face toward the
+    shoulder, d / |d| with d = (I - n n^T)(p_shoulder - p_hit), so the ball meets the blade
+    ``offset`` from its centre on the side away from the arm."""
+    p_hit, n = np.asarray(p_hit, dtype=float), np.asarray(normal, dtype=float)
+    centre = p_hit - contact_offset * n
+    if offset == 0.0:
+        return centre
+    d = SHOULDER - p_hit
+    d -= (d @ n) * n
+    norm = float(np.linalg.norm(d))
+    return centre if norm < 1e-9 else centre + offset * d / norm
 
 
 class StrokePlanner:
@@ -239,26 +264,46 @@ class StrokePlanner:
         seed = previous.q_hit if previous is not None else None
         # The ball touches the blade face when its centre is R + t/2 in front of the blade centre.
         contact_offset = BALL.radius + 0.5 * wp.RACKET.blade_thickness
-        # Each flight time asks for another racket normal and speed: take the best one the arm
-        # reaches within its joint speed limits.
-        for v_out, flight_time in self.aims(p_hit, v_hit, spin, previous if close else None):  # noqa: B007 (the chosen one is used below)
-            racket = racket_for_return(v_hit, v_out, spin)
-            ik = self.arm.solve(np.asarray(p_hit) - contact_offset * racket.normal,
-                                racket.normal, q_seed=seed)
-            if not ik.success:
-                continue
-            qd_hit = self.arm.joint_velocities_free_spin(ik.q, racket.velocity)
-            if np.all(np.abs(qd_hit) <= self.limits.velocity):
-                break
-        else:
+        spins, offsets = self.config.stroke_spins, self.config.blade_offsets
+        if close:  # a correction keeps the stroke's kind first
+            spins = (previous.spin_share, *(x for x in spins if x != previous.spin_share))
+            offsets = (previous.blade_offset,
+                       *(x for x in offsets if x != previous.blade_offset))
+        found = self._first_feasible(p_hit, v_hit, np.asarray(spin, dtype=float), spins,
+                                     offsets, contact_offset, seed, previous if close else None)
+        if found is None:
             return None
+        share, offset, v_out, flight_time, racket, ik, qd_hit = found
         if close and (np.abs(ik.q - previous.q_hit).max() > self.config.max_branch_change):
             return None  # the solver jumped to another arm configuration: keep the last stroke
         replans = previous.replans + 1 if previous is not None else 1
         return Stroke(np.asarray(p_hit), np.asarray(v_hit), float(t_hit), np.asarray(spin),
                       v_out,
                       racket.normal, racket.velocity, np.asarray(ik.q), np.asarray(qd_hit),
-                      ik.position_error, ik.angle_error, float(flight_time), replans)
+                      ik.position_error, ik.angle_error, float(flight_time), replans,
+                      float(share), float(offset))
+
+    def _first_feasible(self, p_hit, v_hit, spin, spins, offsets, contact_offset, seed,
+                        previous):
+        """The first (share, offset, v_out, flight time, racket, IK, theta_dot_hit) the arm
+        reaches within its joint speed limits: for each spin share s and each blade offset in
+        turn (shares outermost), every aim of :meth:`aims` for the spin s omega, best first, with
+        its racket by the racket law and the blade centre of :func:`blade_centre`; None if there
+        is none. The first pair is the plain stroke (s = 1, the ball on the centre)."""
+        for share in spins:
+            compensated = share * spin
+            aims = [(v_out, flight_time, racket_for_return(v_hit, v_out, compensated))
+                    for v_out, flight_time in self.aims(p_hit, v_hit, compensated, previous)]
+            for offset in offsets:
+                for v_out, flight_time, racket in aims:
+                    ik = self.arm.solve(blade_centre(p_hit, racket.normal, contact_offset,
+                                                     offset), racket.normal, q_seed=seed)
+                    if not ik.success:
+                        continue
+                    qd_hit = self.arm.joint_velocities_free_spin(ik.q, racket.velocity)
+                    if np.all(np.abs(qd_hit) <= self.limits.velocity):
+                        return share, offset, v_out, flight_time, racket, ik, qd_hit
+        return None
 
     def needs_replan(self, previous: Stroke | None, p_hit, t_hit, spin=None) -> bool:
         """Whether a prediction moved from the one ``previous`` was planned on by more than
@@ -358,8 +403,7 @@ class AnalyticalPlayer(StagePlanPlayer):
     it. Without it (``serve``) the player stays committed to its one stroke."""
 
     # Predictions past the committed stroke's correction cut-off can change nothing, so none is
-    # made (issue #17's seventh pass); docs/examples/lever_toggle.py turns them back on to
-    # measure what they cost.
+    # made; docs/examples/lever_toggle.py turns them back on to measure what they cost.
     predict_past_cutoff = False
 
     def __init__(self, planner: StrokePlanner | None = None, rate: float = wp.PLANNING_RATE,

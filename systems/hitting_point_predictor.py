@@ -39,8 +39,9 @@ Ports:
 Discrete state: ``[n_collected, last_t, observations (4 x 6), p_hit (3), v_hit (3), t_hit,
 valid, final, spin_hit (3), first_bounce, bounces]``; outputs copy slices of it. The last two
 count the ball's bounces on the robot's half as the refreshed predictions see them
-(:class:`tt_drake.hitting_time.BounceCount`, -1: none yet): after the second no prediction is
-refreshed (the rules end the hitting window there).
+(:class:`tt_drake.hitting_time.BounceCount`, -1: none yet). When the rules leave no hitting
+point (the second bounce seen, or after the first none before the second predicted) the
+prediction is withdrawn: ``valid`` returns to 0, and a learned player lets the ball go.
 """
 
 import math
@@ -55,6 +56,9 @@ from tt_drake.wam_params import PLANNING_RATE
 
 _OBS = 2
 _OUT = 2 + 6 * N_OBSERVATIONS
+#: What the refresh returns when the rules leave the ball no hitting point.
+WITHDRAW = object()
+
 #: The state's "no bounce seen yet" (the refresh's bounce count: first bounce time, count).
 _NO_BOUNCE = -1.0
 # A tick that finds no new estimate changes nothing: "did nothing" tells the simulator not to
@@ -139,18 +143,26 @@ class HittingPointPredictor(LeafSystem):
     def _spin_value(self, context) -> np.ndarray | None:
         return self._spin.Eval(context) if self._spin.HasValue(context) else None
 
-    def _refreshed(self, s, spin, x, t: float, bounces: int) -> np.ndarray | None:
+    def _refreshed(self, s, spin, x, t: float, bounces: int):
         """The physical prediction from an estimate after the robot-side bounce, if it moved
         more than ``refresh_tolerance`` from the published one; else None. ``bounces``: the
-        ball's bounces on the robot's half so far; after the second there is none (the
-        rules)."""
-        if s[4] >= 0.0 or s[1] >= self.observation_y or bounces >= 2:
+        ball's bounces on the robot's half so far. Returns ``WITHDRAW`` when the rules leave no
+        hitting point: the ball has bounced twice on the robot's half, or it has bounced once
+        and the model finds no point before its second bounce (Law 2.10.1.3: the point is
+        lost, and a player should let the ball go)."""
+        if s[4] >= 0.0 or s[1] >= self.observation_y:
             return None
+        if bounces >= 2:
+            return WITHDRAW
         if self.band is None:
             hit = self.refresh.model.predict_plane(_with_spin(s, spin), self.refresh.plane_y)
+            if hit is not None and bounces + sum(b.position[1] < 0.0 for b in hit.bounces) >= 2:
+                return WITHDRAW
         else:
             hit = choose_hitting_point(self.refresh.model, _with_spin(s, spin),
                                        self.refresh.plane_y, self.band, bounces_behind=bounces)
+            if hit is None and bounces == 1:
+                return WITHDRAW
         if hit is None or hit.bounces:
             return None  # the robot-side bounce is still ahead
         pred = np.concatenate([hit.position, hit.velocity, [hit.t], hit.spin])
@@ -183,7 +195,9 @@ class HittingPointPredictor(LeafSystem):
             new[_OUT + 12] = _NO_BOUNCE if count.first is None else count.first
             new[_OUT + 13] = count.count
             pred = self._refreshed(s, spin, x, t, count.count)
-            if pred is not None:
+            if pred is WITHDRAW:
+                new[_OUT + 7] = 0.0  # no legal hitting point: the prediction is withdrawn
+            elif pred is not None:
                 new[_OUT:_OUT + 6] = pred[:6]
                 new[_OUT + 6] = t + pred[6]
                 new[_OUT + 9:_OUT + 12] = pred[7:10]

@@ -271,6 +271,13 @@ class MoMPTrajectorySource(StagePlanPlayer):
                 return None
             return self._move_goal(context, state, old, now)
         if self._valid.Eval(context)[0] < 0.5:
+            if hit is not None and old.stroke is not None:
+                # The prediction was withdrawn before the hitting stage (the rules leave the
+                # ball no hitting point): let it go, stopping from the desired state.
+                q, qd, _ = plan.evaluate(now)
+                state.get_mutable_abstract_state(self._index).set_value(
+                    _State(self.hold_plan(now, q, qd), None, False, old.seen))
+                return None
             return _NOTHING
         p_hit, t_hit = self._p.Eval(context), float(self._t.Eval(context)[0])
         seen = (t_hit, float(p_hit[0]), float(p_hit[1]), float(p_hit[2]))
@@ -324,7 +331,7 @@ class MoMPTrajectorySource(StagePlanPlayer):
         configuration has moved past the re-planning thresholds since the refusal, or that long
         after it. Returns :data:`_NOTHING` when it changes no state."""
         if self._valid.Eval(context)[0] < 0.5:
-            return _NOTHING
+            return _NOTHING  # a swing under way is played out, as a real arm's would be
         p_hit, t_hit = self._p.Eval(context), float(self._t.Eval(context)[0])
         seen = (t_hit, float(p_hit[0]), float(p_hit[1]), float(p_hit[2]))
         q_hit, qd_hit = self._q_hit.Eval(context), self._qd_hit.Eval(context)

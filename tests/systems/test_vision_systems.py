@@ -18,6 +18,7 @@ from tt_drake.diagrams.predictor import (
 )
 from tt_drake.estimation import BallFlightEKF, EstimatorConfig
 from tt_drake.hitting_point import PhysicalPredictor
+from tt_drake.hitting_time import HittingBand
 from tt_drake.systems.ball_camera import BallCamera
 from tt_drake.systems.ball_flight_estimator import BallFlightEstimator
 from tt_drake.systems.hitting_point_predictor import HittingPointPredictor
@@ -272,3 +273,33 @@ def test_final_prediction_follows_the_ball_after_the_robot_side_bounce():
     assert np.linalg.norm(held[-1][1][:3] - truth.position) > 0.02
     assert followed[-1][1][:3] == pytest.approx(truth.position, abs=1e-6)
     assert followed[-1][1][3] == pytest.approx(truth.t, abs=1e-6)
+
+
+@pytest.mark.parametrize("band", [None, HittingBand()], ids=["plane", "band"])
+def test_a_ball_bouncing_twice_on_the_robots_half_loses_its_prediction(band):
+    """The rules end the hitting window at the second bounce on the receiver's half: a short
+    ball that bounces at y = -0.52 m and again at -1.01 m before the hitting plane has a
+    prediction before its robot-side bounce (the plane crossing), which the refresh withdraws
+    (``valid`` 0) from the second bounce on at the latest; with the band, already after the first,
+    when the model finds no hitting point before the second."""
+    physical = PhysicalPredictor()
+    model = physical.model
+    launch = np.array([0.0, 0.6, 0.95, 0.0, -3.2, -0.5, 0.0, 0.0, 0.0])
+    frames = [model.predict_time(launch, k * PERIOD) for k in range(1, 75)]
+    robot = [sum(b.position[1] < 0.0 for b in c.bounces) for c in frames]
+    assert max(robot) == 2
+    pred = HittingPointPredictor(physical=physical, refresh=PhysicalPredictor(), band=band)
+    ctx = pred.CreateDefaultContext()
+    valid = []
+    for k, c in enumerate(frames):
+        pred.GetInputPort("state").FixValue(ctx, np.r_[c.position, c.velocity])
+        pred.GetInputPort("spin").FixValue(ctx, c.spin)
+        pred.GetInputPort("status").FixValue(ctx, [1.0, (k + 1) * PERIOD])
+        step(pred, ctx, (k + 1) * PERIOD + PERIOD / 3)
+        valid.append(pred.GetOutputPort("valid").Eval(ctx)[0])
+    assert any(v == 1.0 for v, n in zip(valid, robot, strict=True) if n == 0)
+    last = len(robot) - 1 - robot[::-1].index(1)  # the last frame between the two bounces
+    assert all(v == 0.0 for v in valid[last + 2:])
+    if band is not None:
+        first = robot.index(1)
+        assert all(v == 0.0 for v in valid[first + 1:])
