@@ -40,7 +40,8 @@ from tt_drake.diagrams.scenario import Scenario
 from tt_drake.serves import ServeSampler
 from tt_drake.systems.world import add_world, make_simulator, set_ball_state
 
-# The recipe the C++ reference diagram was defined with (DESIGN.md): kept fixed.
+# The recipe the C++ reference diagram was defined with (docs/design.md, "Simulation recipe"):
+# kept fixed.
 REFERENCE_SIMULATOR = SimulatorConfig(integration_scheme="runge_kutta3", accuracy=1e-4,
                                       max_step_size=2e-3, use_error_control=True)
 PROJECTED_SERVES = 10_000

@@ -1,11 +1,11 @@
 """Build the serve diagram for a scenario and a player, and run serve episodes on it.
 
-The diagram (DESIGN.md): BallLauncher, MultibodyPlant (WAM + racket, table, net, floor, ball),
-Aerodynamics, the player's trajectory source feeding Drake's InverseDynamicsController, and the
-Referee. It is built once; each episode restores a saved context
-(``SetTimeStateAndParametersFrom`` + ``Initialize``, facts.md section 4), sets the launcher's seed,
-puts the ball at the launch state and simulates until the referee ends the episode (the ball
-reached the floor) or, at the latest, the predicted crossing of the hitting plane plus
+The diagram (docs/design.md, "The serve diagram"): BallLauncher, MultibodyPlant (WAM + racket,
+table, net, floor, ball), Aerodynamics, the player's trajectory source feeding Drake's
+InverseDynamicsController, and the Referee. It is built once; each episode restores a saved context
+(``SetTimeStateAndParametersFrom`` + ``Initialize``, docs/design.md), sets the launcher's seed, puts
+the ball at the launch state and simulates until the referee ends the episode (the ball reached the
+floor) or, at the latest, the predicted crossing of the hitting plane plus
 ``Scenario.after_crossing``.
 
 Players are registered in :data:`PLAYERS`: a function that adds the player's systems to the

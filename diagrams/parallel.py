@@ -1,6 +1,6 @@
 """Run serve episodes in parallel worker processes, each building its diagram once.
 
-Diagrams and contexts are not picklable (facts.md section 4), so every worker builds its own
+Diagrams and contexts are not picklable (docs/design.md), so every worker builds its own
 :class:`ServeDiagram` in its initializer (fork start method: the parent's imports are shared) and
 receives only episode seeds; results come back in submission order. With one worker everything
 runs in this process.

@@ -1,6 +1,6 @@
 """The table-tennis world in a MultibodyPlant: table, net, floor, ball and (optionally) the WAM.
 
-Simulation recipe (DESIGN.md, facts.md section 4): a continuous plant (``time_step = 0``), point
+Simulation recipe (docs/design.md): a continuous plant (``time_step = 0``), point
 contact with Hunt-Crossley dissipation, stiction tolerance 1e-2 m/s, integrated by error-controlled
 RK3 with accuracy 1e-4 and a maximum step of 2 ms. These are the defaults of
 :class:`WorldConfig`; scenario YAML files may override them. With ``flight_accuracy`` (the default

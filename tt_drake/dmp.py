@@ -1,6 +1,6 @@
 """Hitting dynamic movement primitive (Muelling, Kober & Peters 2010, Eqs. 1-5).
 
-Canonical system (Eq. 3, with the decaying sign; see ``equations.md``)::
+Canonical system (Eq. 3, with the decaying sign; see ``docs/equations.md``)::
 
     tau z' = -alpha_z z,        z(t) = exp(-alpha_z t / tau),   z(0) = 1
 
