@@ -18,8 +18,8 @@ diagram, against diagrams measured in the same run.
 - Every diagram is timed on the same serve one after the other, serve by serve in one process
   (:func:`_alternate`): the per-serve CPU ratios compare times measured seconds apart, under
   the same load, and the bench reports their median and quartiles with the ratio of the totals.
-  (Timing each diagram's serves in a block, minutes apart, let the ratio of the same code move
-  by up to 20 % between runs: docs/performance.md, sixth pass.)
+  (Timed in blocks minutes apart, a ratio would move with the machine's load: docs/
+  performance.md, "Measuring".)
 - With ``workers`` > 1: the same serves in that many worker processes
   (:func:`tt_drake.diagrams.parallel.run_episodes`): the start-up (building the workers'
   diagrams), the steady wall time per serve, the speed-up over one process and the projected

@@ -6,8 +6,8 @@ receives only episode seeds; results come back in submission order. With one wor
 runs in this process.
 
 Each worker process runs its BLAS with one thread (:func:`one_blas_thread`): a worker is one core's
-worth of work, and BLAS threads of several workers oversubscribe the cores (a CrKR Cholesky took
-3.6 s instead of 0.14 s under load; docs/performance.md).
+worth of work, and BLAS threads of several workers oversubscribe the cores (docs/performance.md,
+"The serve diagram's Python").
 """
 
 import itertools

@@ -16,7 +16,7 @@ tick). With ``setpoint_period`` (the servo's), ``setpoint`` is read from a table
 next :data:`SETPOINT_TABLE_TICKS` servo ticks, computed in one vectorised evaluation
 (:meth:`tt_drake.stages.StagePlan.evaluate_many`, the same numbers as one evaluation per tick) when
 a tick finds a new plan or runs past the table: a servo tick then costs one row copy
-(docs/performance.md, fifth pass).
+(docs/performance.md, "The players' Python").
 """
 
 import numpy as np

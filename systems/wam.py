@@ -257,7 +257,7 @@ def add_servo_hold(builder: DiagramBuilder, setpoint, controller: InverseDynamic
     (``desired_state`` (14), ``desired_acceleration`` (7)) that a C++ ``Multiplexer`` joins. A
     C++ ``Demultiplexer`` splits the held values into the controller's ``desired_state`` and
     ``desired_acceleration``, so the player is asked for its set-point once per tick through one
-    port (docs/performance.md, third pass).
+    port (docs/performance.md, "The serve diagram's Python").
 
     The WAM takes one set-point per servo tick (docs/constants.md), so the controller holds it
     in between. Holding also keeps a Python player out of the integrator's derivative evaluations
