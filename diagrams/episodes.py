@@ -225,8 +225,8 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     # prediction: with ~0.5 s left at detection its stages leave no room for a preparation, so a
     # hitting stage begun on an early prediction would stay committed to it.
     # dt = 10 ms: the model locates the plane inside a step, so the step only sets RK4's error
-    # (the crossing within 7e-9 m and 1.3e-9 s of a 0.25 ms step's; docs/performance.md, "The
-    # players' Python").
+    # (the crossing within 7e-9 m and 1.3e-9 s of a 0.25 ms step's;
+    # docs/performance.md, "The players' Python").
     # After the robot-side bounce the estimator knows the spin: the MoMP player's prediction
     # follows the ball from there (docs/spin.md). One stateless physical predictor serves both.
     refresh = PhysicalPredictor(CompliantBounceBallModel(dt=1e-2)) if primitives else None
