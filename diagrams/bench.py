@@ -18,8 +18,8 @@ diagram, against diagrams measured in the same run.
 - Every diagram is timed on the same serve one after the other, serve by serve in one process
   (:func:`_alternate`): the per-serve CPU ratios compare times measured seconds apart, under
   the same load, and the bench reports their median and quartiles with the ratio of the totals.
-  (Timing each diagram's serves in a block, minutes apart, let the ratio of the same code move
-  by up to 20 % between runs: docs/performance.md, sixth pass.)
+  (Timed in blocks minutes apart, a ratio would move with the machine's load: docs/
+  performance.md, "Measuring".)
 - With ``workers`` > 1: the same serves in that many worker processes
   (:func:`tt_drake.diagrams.parallel.run_episodes`): the start-up (building the workers'
   diagrams), the steady wall time per serve, the speed-up over one process and the projected
@@ -40,7 +40,8 @@ from tt_drake.diagrams.scenario import Scenario
 from tt_drake.serves import ServeSampler
 from tt_drake.systems.world import add_world, make_simulator, set_ball_state
 
-# The recipe the C++ reference diagram was defined with (DESIGN.md): kept fixed.
+# The recipe the C++ reference diagram was defined with (docs/design.md, "Simulation recipe"):
+# kept fixed.
 REFERENCE_SIMULATOR = SimulatorConfig(integration_scheme="runge_kutta3", accuracy=1e-4,
                                       max_step_size=2e-3, use_error_control=True)
 PROJECTED_SERVES = 10_000

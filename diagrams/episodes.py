@@ -1,11 +1,11 @@
 """Build the serve diagram for a scenario and a player, and run serve episodes on it.
 
-The diagram (DESIGN.md): BallLauncher, MultibodyPlant (WAM + racket, table, net, floor, ball),
-Aerodynamics, the player's trajectory source feeding Drake's InverseDynamicsController, and the
-Referee. It is built once; each episode restores a saved context
-(``SetTimeStateAndParametersFrom`` + ``Initialize``, facts.md section 4), sets the launcher's seed,
-puts the ball at the launch state and simulates until the referee ends the episode (the ball
-reached the floor) or, at the latest, the predicted crossing of the hitting plane plus
+The diagram (docs/design.md, "The serve diagram"): BallLauncher, MultibodyPlant (WAM + racket,
+table, net, floor, ball), Aerodynamics, the player's trajectory source feeding Drake's
+InverseDynamicsController, and the Referee. It is built once; each episode restores a saved context
+(``SetTimeStateAndParametersFrom`` + ``Initialize``, docs/design.md), sets the launcher's seed, puts
+the ball at the launch state and simulates until the referee ends the episode (the ball reached the
+floor) or, at the latest, the predicted crossing of the hitting plane plus
 ``Scenario.after_crossing``.
 
 Players are registered in :data:`PLAYERS`: a function that adds the player's systems to the
@@ -222,12 +222,11 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
                                        gpr.estimator if gpr else None)
     # Early predictions start the MoMP player's preparation stage at detection (paper section
     # III-C). The crkr player (the teacher's quintic stages, section III-B.2) waits for the final
-    # prediction: with ~0.5 s left at detection its stages leave no room for a preparation, so
-    # it began the hitting stage on the first early prediction and stayed committed to it
-    # (1,300 serves, seed 21: 97.9 % legal returns instead of 100 %, every miss a single plan).
-    # dt = 10 ms: the crossing of a 0.25 ms step to 7e-9 m in position, 1.3e-9 s in time and
-    # 1.6e-8 m/s in velocity on 1,920 states along 60 default and 60 spin serves (the same
-    # serves missing the plane), at half the RK4 steps of 5 ms (docs/performance.md, third pass).
+    # prediction: with ~0.5 s left at detection its stages leave no room for a preparation, so a
+    # hitting stage begun on an early prediction would stay committed to it.
+    # dt = 10 ms: the model locates the plane inside a step, so the step only sets RK4's error
+    # (the crossing within 7e-9 m and 1.3e-9 s of a 0.25 ms step's;
+    # docs/performance.md, "The players' Python").
     # After the robot-side bounce the estimator knows the spin: the MoMP player's prediction
     # follows the ball from there (docs/spin.md). One stateless physical predictor serves both.
     refresh = PhysicalPredictor(CompliantBounceBallModel(dt=1e-2)) if primitives else None

@@ -1,13 +1,13 @@
 """Run serve episodes in parallel worker processes, each building its diagram once.
 
-Diagrams and contexts are not picklable (facts.md section 4), so every worker builds its own
+Diagrams and contexts are not picklable (docs/design.md), so every worker builds its own
 :class:`ServeDiagram` in its initializer (fork start method: the parent's imports are shared) and
 receives only episode seeds; results come back in submission order. With one worker everything
 runs in this process.
 
 Each worker process runs its BLAS with one thread (:func:`one_blas_thread`): a worker is one core's
-worth of work, and BLAS threads of several workers oversubscribe the cores (a CrKR Cholesky took
-3.6 s instead of 0.14 s under load; docs/performance.md).
+worth of work, and BLAS threads of several workers oversubscribe the cores (docs/performance.md,
+"The serve diagram's Python").
 """
 
 import itertools

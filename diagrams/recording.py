@@ -8,7 +8,7 @@ poses of the arm and the ball in a separate plant and publishes them into one
 :data:`HOLD` seconds at its end.
 
 Drake's Meshcat runs offline on localhost; ``StaticHtml()`` inlines three.js and the animation,
-so the file opens in any browser with no network (facts.md section 4). After Drake writes the
+so the file opens in any browser with no network (docs/constants.md). After Drake writes the
 page, :func:`finish_page` adds a legend (the serves' outcomes, landing points and what each
 colour means) and a script that keeps the animation playing in a loop and highlights the serve
 on screen. Each serve's drawings (paths, markers) are visible only during its segment.

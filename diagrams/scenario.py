@@ -75,9 +75,9 @@ class LearnedPlayerConfig:
     predictor: str = ""
     configuration: str = "crkr"
     early_prediction: bool = True
-    # The hitting DMP's moving goal (issue #14): the hitting stage follows each new prediction
-    # until ``MoMPConfig.goal_cutoff`` before the hit instead of committing at its start. Off in
-    # the paper profile; the hard artefacts turn it on (``tt-drake serve --artefacts hard``).
+    # The hitting DMP's moving goal (docs/learned_player.md): the hitting stage follows each new
+    # prediction until ``MoMPConfig.goal_cutoff`` before the hit instead of committing at its start.
+    # Off in the paper profile; the hard artefacts turn it on (``tt-drake serve --artefacts hard``).
     moving_goal: bool = False
     # The ``analytical`` configuration's racket for the predicted spin at the hit (the teacher's
     # aim and racket law with ``spin_hit``: systems/hitting_configuration.py). Always on with the

@@ -9,10 +9,10 @@ serves are first played by the oracle strategies (``tt-drake serve --ceiling``'s
 :func:`tt_drake.diagrams.serve.returnable_serves`, on ``--workers`` processes) and only the
 returnable ones are reported.
 
-**Analytical player** (issue #13, item 2: the players re-plan until the hitting stage is
-committed; the analytical player's corrections re-plan it until ``correct_lead`` = 80 ms before
-the hit). Every stroke the player stores is recorded with the estimate it was planned from.
-Four moments, two at each end of the hitting stage:
+**Analytical player** (the players re-plan until the hitting stage is committed; the analytical
+player's corrections re-plan it until ``correct_lead`` = 80 ms before the hit). Every stroke the
+player stores is recorded with the estimate it was planned from. Four moments, two at each end of
+the hitting stage:
 
 - ``commit``: the planner's prediction from the last estimate available when the hitting stage
   began (the swing start, the commit in the paper's sense);

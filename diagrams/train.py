@@ -22,13 +22,12 @@ awaiting posture after the follow-through). In every primitive, the joints that 
 demonstration take the normalised shape of the joint that moved most
 (:func:`tt_drake.imitation.borrow_weak_shapes`: DMP amplitude scaling is ill-conditioned there).
 
-The defaults are the paper profile's. The options (issue #14, docs/motor_primitives.md section
-10): the demonstrations are the executed plan or the arm's recorded joint state; the DMP gain
-alpha_y; the borrowing ratio of the hitting primitives and of the stage DMPs (0: none); the
-stimulus layout (:mod:`tt_drake.stimulus`: ``spin`` appends the teacher's predicted spin at
-impact, ``spin_hit``); the responsibility learning's kappa, zeta and pruning threshold (Eq. 10,
-Algorithm 3; :class:`tt_drake.responsibility.ResponsibilityParams`). All are recorded in the
-artefact.
+The defaults are the paper profile's. The options (docs/motor_primitives.md section 10): the
+demonstrations are the executed plan or the arm's recorded joint state; the DMP gain alpha_y; the
+borrowing ratio of the hitting primitives and of the stage DMPs (0: none); the stimulus layout
+(:mod:`tt_drake.stimulus`: ``spin`` appends the teacher's predicted spin at impact, ``spin_hit``);
+the responsibility learning's kappa, zeta and pruning threshold (Eq. 10, Algorithm 3;
+:class:`tt_drake.responsibility.ResponsibilityParams`). All are recorded in the artefact.
 
 crkr (paper section II-C.2): the map from the stimulus s = (p_hit, v_hit) to the hitting
 configuration (theta_hit, theta_dot_hit), 14 outputs sharing one kernel (one model per output, as
@@ -185,20 +184,18 @@ def _representative(demos: list[Demonstration], stage: str) -> Demonstration:
     return demos[int(np.argsort(taus)[len(taus) // 2])]
 
 
-# The hard profile's settings until session 12, which trained the shipped hard set
-# (models/learned-hard/, ``--protocol hard-stiff``): the library imitates the arm's recorded
-# strokes with no borrowing in the hitting primitives and gates on the spin (measured in
-# docs/motor_primitives.md section 10); its stiff hitting DMP (alpha_y 15) reaches the teacher's
-# hitting configuration whatever its weights, so the library plays best without learning
-# (gamma = 1: 96.4 % of 1,000 spin serves) and learning has nothing to select; Eq. 10 with the
-# defaults (kappa 1).
+# The ``hard-stiff`` profile, which trained the shipped hard set (models/learned-hard/): the
+# library imitates the arm's recorded strokes with no borrowing in the hitting primitives and
+# gates on the spin (docs/motor_primitives.md section 10); its stiff hitting DMP (alpha_y 15)
+# reaches the teacher's hitting configuration whatever its weights, so the library plays best
+# without learning and learning has nothing to select; Eq. 10 with the defaults (kappa 1).
 STIFF_HARD_PROFILE = {"demonstrations": "recorded", "alpha_y": 15.0, "stimulus": "spin",
                       "hitting_borrow": 0.0, "stage_borrow": WEAK_AMPLITUDE_RATIO}
-# The hard reproduce profile (issue #14): alpha_y 11 leaves the impact to the primitives
-# (gamma = 1 returns 93.4 % of 1,000 spin serves) so that responsibility learning and PoWER have
-# something to select and adapt; kappa 4 and zeta 0.5 let Eq. 10 prune a primitive after the ~3
-# rollouts' worth of gating weight it gets (kappa 1 cannot): docs/reproducing.md, "The hard
-# profile at alpha_y 11". The paper profile keeps train_library's defaults.
+# The hard reproduce profile: alpha_y 11 leaves part of the impact to the primitives, so that
+# responsibility learning and PoWER have something to select and adapt; kappa 4 and zeta 0.5
+# let Eq. 10 prune a primitive after the ~3 rollouts' worth of gating weight it gets (kappa 1
+# cannot): docs/reproducing.md, "Choosing the hard profile's gain". The paper profile keeps
+# train_library's defaults.
 HARD_PROFILE = {**STIFF_HARD_PROFILE, "alpha_y": 11.0, "kappa": 4.0, "zeta": 0.5}
 
 

@@ -1,6 +1,6 @@
 """Aerodynamics: drag and Magnus force on the ball, which Drake does not model for free bodies.
 
-    F = m ( -k |v| v + C_L (omega x v) )      (facts.md section 1; same law as tt_drake.ball_model)
+    F = m ( -k |v| v + C_L (omega x v) )      (docs/constants.md; same law as tt_drake.ball_model)
 
 Input ``ball_state``: the plant's state output for the ball's model instance,
 (quaternion wxyz, p, omega, v), 13 floats. Output ``generalized_force``: the plant's full

@@ -9,7 +9,7 @@ simulation).
 
 Frames and conventions
 ----------------------
-* ``W``: the world frame of DESIGN.md (z up, +y toward the opponent, +x the robot's forehand).
+* ``W``: the world frame of docs/world.md (z up, +y toward the opponent, +x the robot's forehand).
 * ``C``: the racket-centre frame ``racket_center`` (blade centre; ``y_C`` is the racket normal,
   ``z_C`` runs from the handle through the blade). ``X_WC(q)`` is its pose in the world.
 * Spatial velocity of the racket: ``V_WC = [ω_WC; v_WC]`` (angular first, then the linear

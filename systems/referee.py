@@ -110,7 +110,7 @@ class Referee(LeafSystem):
         self._stop_below = stop_below
         self._stop_when_decided = stop_when_decided
         # The ports, kept: each 250 Hz sample reads them without looking them up (docs/
-        # performance.md, fourth pass).
+        # performance.md).
         self._ball = self.DeclareVectorInputPort("ball_state", 13)
         self._robot = self.DeclareVectorInputPort(
             "robot_state", 14 if racket_centre is None else racket_centre.state_size)

@@ -8,15 +8,15 @@ InverseDynamicsController, ``setpoint`` (21: both at once, what the servo hold s
 ``stage`` (1: index into :data:`tt_drake.stages.STAGES`), ``stroke`` (abstract) and
 ``predicted_hit`` (4: where the stroke meets the ball, and a valid flag).
 
-The desired-value ports share one plan evaluation per (plan, time), an O(1) polynomial
-evaluation (DESIGN.md). In the serve diagram ``setpoint`` feeds the controller through the
+The desired-value ports share one plan evaluation per (plan, time), an O(1) polynomial evaluation
+(docs/design.md, "Clocks"). In the serve diagram ``setpoint`` feeds the controller through the
 servo's zero-order hold (:func:`tt_drake.systems.wam.add_servo_hold`), so it is evaluated once per
-servo tick, at ``t + setpoint_lead`` (half a tick: the held value is the plan at the middle of
-its tick). With ``setpoint_period`` (the servo's), ``setpoint`` is read from a table of the plan
-at the next :data:`SETPOINT_TABLE_TICKS` servo ticks, computed in one vectorised evaluation
-(:meth:`tt_drake.stages.StagePlan.evaluate_many`, the same numbers as one evaluation per tick)
-when a tick finds a new plan or runs past the table: a servo tick then costs one row copy
-(docs/performance.md, fifth pass).
+servo tick, at ``t + setpoint_lead`` (half a tick: the held value is the plan at the middle of its
+tick). With ``setpoint_period`` (the servo's), ``setpoint`` is read from a table of the plan at the
+next :data:`SETPOINT_TABLE_TICKS` servo ticks, computed in one vectorised evaluation
+(:meth:`tt_drake.stages.StagePlan.evaluate_many`, the same numbers as one evaluation per tick) when
+a tick finds a new plan or runs past the table: a servo tick then costs one row copy
+(docs/performance.md, "The players' Python").
 """
 
 import numpy as np

@@ -1,6 +1,6 @@
 """The Barrett WAM with its racket in a MultibodyPlant, and its inverse-dynamics controller.
 
-Frames (DESIGN.md world frame: z up, +y from the robot's end toward the launcher, +x the robot's
+Frames (docs/world.md world frame: z up, +y from the robot's end toward the launcher, +x the robot's
 forehand). The WAM hangs from the ceiling: its base plate (URDF link ``wam_base``, origin on the
 plate, z toward the shoulder) is welded at ``(MOUNT.mount_x, MOUNT.mount_y, MOUNT.mount_z)`` with
 orientation :data:`tt_drake.wam_params.BASE_ROTATION`, a half-turn about the horizontal axis
@@ -257,9 +257,9 @@ def add_servo_hold(builder: DiagramBuilder, setpoint, controller: InverseDynamic
     (``desired_state`` (14), ``desired_acceleration`` (7)) that a C++ ``Multiplexer`` joins. A
     C++ ``Demultiplexer`` splits the held values into the controller's ``desired_state`` and
     ``desired_acceleration``, so the player is asked for its set-point once per tick through one
-    port (docs/performance.md, third pass).
+    port (docs/performance.md, "The serve diagram's Python").
 
-    The WAM takes one set-point per servo tick (facts.md section 2), so the controller holds it
+    The WAM takes one set-point per servo tick (docs/constants.md), so the controller holds it
     in between. Holding also keeps a Python player out of the integrator's derivative evaluations
     (three per RK3 step): the hold samples it once per tick and its output is cached. A player
     feeding a hold evaluates its plan half a period ahead (``setpoint_lead = period / 2``) so that

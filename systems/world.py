@@ -1,6 +1,6 @@
 """The table-tennis world in a MultibodyPlant: table, net, floor, ball and (optionally) the WAM.
 
-Simulation recipe (DESIGN.md, facts.md section 4): a continuous plant (``time_step = 0``), point
+Simulation recipe (docs/design.md): a continuous plant (``time_step = 0``), point
 contact with Hunt-Crossley dissipation, stiction tolerance 1e-2 m/s, integrated by error-controlled
 RK3 with accuracy 1e-4 and a maximum step of 2 ms. These are the defaults of
 :class:`WorldConfig`; scenario YAML files may override them. With ``flight_accuracy`` (the default
@@ -180,7 +180,8 @@ def advance_in_segments(simulator: Simulator, schedule, end: float, period: floa
     the schedule sets the accuracy from the state there, and so on. One Python call per period
     (250 Hz: ~400 per serve) instead of one per step (~1,400). The schedule's horizon must cover
     ``period`` plus a step: a contact within ``period`` of a decision is then already within the
-    horizon at the decision before (docs/performance.md, fourth pass). While this runs the
+    horizon at the decision before (docs/performance.md, "The integrator's accuracy"). While this
+    runs the
     simulator has no monitor; afterwards ``schedule`` is its monitor (as :func:`make_simulator`
     leaves it). The monitor it had is not read back and set again: each such round trip through
     pybind wraps the previous wrapper, so a worker that played ~1,000 serves hit Python's
@@ -274,7 +275,7 @@ class ContactAccuracy:
         self._v = plant.num_positions() + ball.floating_velocities_start_in_v() + 3
         # Per call (about 1,400 per serve) the monitor reads the plant's state through a view
         # bound to the simulator's context at the first call and returns one kept status: no
-        # context or state wrapper is made per step (docs/performance.md, third pass). The
+        # context or state wrapper is made per step (docs/performance.md). The
         # integrator is asked for at every call: ApplySimulatorConfig (each episode) replaces it.
         self._root = None
         self._plant_context = None

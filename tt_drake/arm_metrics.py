@@ -1,7 +1,7 @@
 """What the arm did in an episode: joint-limit excess, joint speed, torque saturation.
 
 Computed from sampled arm states (q, q_dot) and the controller's commanded torques. The plant
-silently clamps each actuator to its effort limit (facts.md section 4), so saturation is seen by
+silently clamps each actuator to its effort limit (docs/constants.md), so saturation is seen by
 comparing the command with the limit.
 """
 

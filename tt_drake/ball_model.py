@@ -3,7 +3,7 @@
 It is the model the Drake world is calibrated to, shared by the launcher (serve rejection), the
 ball-flight estimator, the physical-model hitting-point predictor and the analytical player.
 
-Flight (facts.md section 1):
+Flight (docs/constants.md, "Aerodynamics"):
 
     p' = v,    v' = g - k |v| v + C_L (omega x v),    omega' = 0
 
@@ -14,7 +14,7 @@ f_n = k x (1 + d x'), whose normal restitution depends on d * v_n only
 
 The state is a 9-vector ``(p, v, omega)`` in the world frame of :mod:`tt_drake.constants`.
 Scalar arithmetic on Python floats is used on purpose: for 3-vectors it is several times faster
-than numpy (facts.md section 4).
+than numpy (docs/constants.md, "Drake contact and integration").
 """
 
 from __future__ import annotations
@@ -66,7 +66,8 @@ def _restitution_table() -> tuple[np.ndarray, np.ndarray]:
 def hunt_crossley_restitution(dissipation: float, impact_speed: float) -> float:
     """Normal coefficient of restitution of a Hunt-Crossley contact, a function of d * v_n only.
 
-    Close to the textbook first-order result e ~ 1 - (2/3) d v for small d v (facts.md section 4).
+    Close to the textbook first-order result e ~ 1 - (2/3) d v for small d v (docs/constants.md, the
+    restitution table).
     """
     dv_grid, e_grid = _restitution_table()
     return float(np.interp(dissipation * abs(impact_speed), dv_grid, e_grid))

@@ -4,9 +4,9 @@ The model files in ``models/`` are generated from these values (``tt-drake model
 that the committed files are up to date), and the numpy ball model, the launcher, the referee and
 the tests all read them from here.
 
-Frame (DESIGN.md): SI units; world origin on the floor under the table centre, z up, +y along
-the table from the robot's end to the launcher's end, x completing a right-handed frame, so +x is
-the robot's forehand (right-hand) side.
+Frame (docs/world.md, "Frames and layout"): SI units; world origin on the floor under the table
+centre, z up, +y along the table from the robot's end to the launcher's end, x completing a
+right-handed frame, so +x is the robot's forehand (right-hand) side.
 
 Sources: ITTF Laws 2.1-2.3 for table, net and ball; the MPI table-tennis simulator
 (RobotLearning/optimpoly) for drag, Magnus and the lab's layout; the Barrett WAM manual and
@@ -47,7 +47,7 @@ class Net:
 
     height: float = 0.1525
     overhang: float = 0.1525
-    thickness: float = 0.02  # collision box; >= 5-10 mm against tunnelling (facts.md section 4)
+    thickness: float = 0.02  # collision box; >= 5-10 mm against tunnelling (docs/constants.md)
     post_radius: float = 0.01
 
     @property
@@ -60,7 +60,7 @@ class Ball:
     """ITTF ball (Law 2.3) and its aerodynamics.
 
     Drag acceleration a = -k |v| v with k = rho C_D A / (2 m) ~ 0.14 1/m; Magnus acceleration
-    a = C_L (omega x v) with the MPI simulator's C_L = 0.001 (facts.md section 1).
+    a = C_L (omega x v) with the MPI simulator's C_L = 0.001 (docs/constants.md, "Aerodynamics").
     """
 
     radius: float = 0.020
@@ -157,7 +157,8 @@ def surface_friction_for(combined: float, ball_mu: float) -> float:
 
 @dataclass(frozen=True)
 class Contact:
-    """Calibrated contact model (facts.md section 4; tests/systems/test_world_physics.py).
+    """Calibrated contact model (docs/constants.md, "Drake contact and integration";
+    tests/systems/test_world_physics.py).
 
     The ball is stiff and lossless so that each surface sets its own bounce. Hunt-Crossley
     restitution depends only on d * v_impact (``ball_model.hunt_crossley_restitution``):

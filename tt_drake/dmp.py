@@ -1,6 +1,6 @@
 """Hitting dynamic movement primitive (Muelling, Kober & Peters 2010, Eqs. 1-5).
 
-Canonical system (Eq. 3, with the decaying sign; see ``equations.md``)::
+Canonical system (Eq. 3, with the decaying sign; see ``docs/equations.md``)::
 
     tau z' = -alpha_z z,        z(t) = exp(-alpha_z t / tau),   z(0) = 1
 
@@ -55,7 +55,7 @@ FloatArray = NDArray[np.float64]
 # Sensitivity maps kept per HittingDMP (least recently used dropped). The learned player's
 # roll-outs ask for ~600 different step counts (26-629 over 30 momp serves, ~6 new ones per serve
 # at first); a map is ~0.8 kB per step (at most ~0.5 MB), so 256 of them are at most ~130 MB
-# and on average ~60 MB (docs/performance.md, third pass).
+# and on average ~60 MB (docs/performance.md, "The players' Python").
 _CACHED_MAPS = 256
 # The most RK4 steps a movement's map may ask for as its minimum (``min_steps``): ~8 MB per map.
 _MAX_STEPS = 10_000
@@ -298,7 +298,7 @@ class HittingDMP:
         # x -> Phi_j x + Gam_j u up to j, applied to the identity start. All the compositions
         # at once by doubling (an inclusive prefix scan, log2(n_fine) rounds of stacked 2 x 2
         # products): the same numbers as stepping one at a time up to rounding (~1e-14 on
-        # entries up to ~50), at ~2.5x less CPU (docs/performance.md, third pass). Row j of
+        # entries up to ~50), at ~2.5x less CPU (docs/performance.md). Row j of
         # ``maps`` is [P_j | Q_j]: the state after step j is P_j (y0, v0) + Q_j u.
         maps = np.concatenate([phi, gam], axis=2)  # (n_fine, 2, 4 + B)
         shift = 1

@@ -3,7 +3,7 @@ the table bounces.
 
 State ``x = (p, v, omega)`` (9, world frame; omega in rad/s). The dynamics are the numpy
 :class:`~tt_drake.ball_model.CompliantBounceBallModel` (gravity, drag, Magnus and the
-Hunt-Crossley table bounce, calibrated to the Drake world; facts.md section 1), which is
+Hunt-Crossley table bounce, calibrated to the Drake world; docs/world.md, "Physics"), which is
 non-smooth at the bounce, so the filter is "model-based":
 
 Prediction over ``dt`` (frame to frame)::

@@ -2,7 +2,7 @@
 
 From a demonstration sampled at times ``t_1 .. t_T`` with joint positions, velocities and
 accelerations per DoF, compute the reference forcing term (Eq. 7, read with consistent units, see
-``equations.md``)::
+``docs/equations.md``)::
 
     f_ref,t = [tau^2 thdd_t - (1 - z_t) alpha_y (beta_y (g_m,t - th_t) + tau (thd_T - thd_t))]
               / ((th_T - th_1) a)

@@ -3,7 +3,7 @@
 Numpy only. A stroke is a :class:`tt_drake.stages.StagePlan` whose segments are
 :class:`SampledSegment` objects: a DMP rollout sampled once per (re-)plan and stored as one quintic
 per sample interval, so that evaluating the plan at any time is O(1) (one Horner evaluation of a
-stored row; DESIGN.md) and q, q_dot, q_ddot are continuous inside a segment.
+stored row; docs/design.md, "Clocks") and q, q_dot, q_ddot are continuous inside a segment.
 
 Stages (section III-A) and what generates them:
 

@@ -1,6 +1,7 @@
 """The analytical player's stroke: where to send the ball, and the racket state that sends it there.
 
-Two steps, as in the teacher of the paper (its ref. [24]; equations.md, "racket law"):
+Two steps, as in the teacher of the paper (its ref. [24]; docs/equations.md, "The teacher's racket
+law"):
 
 1. :func:`aim_return`: the outgoing ball velocity v_out that carries the ball from the hitting point
    to the landing target. It is solved with the drag model of :class:`BallModel` (a drag-free
@@ -12,7 +13,7 @@ Two steps, as in the teacher of the paper (its ref. [24]; equations.md, "racket 
    n = (v_out - v_in) / |v_out - v_in|. Tangentially the racket moves with the ball's contact
    point, v_R,t = tangential part of (v_in + omega x (-R n)): the contact point does not slip, so
    the rubber's friction (mu = 0.9 in our world) does not act and the ball's tangential velocity
-   and spin pass unchanged, as the law assumes. equations.md's form sets v_R,t = 0 instead, which
+   and spin pass unchanged, as the law assumes. The published form sets v_R,t = 0 instead, which
    with a grippy racket would pull the ball's tangential velocity toward the rolling limit; and a
    ball off the table carries 70-90 rad/s of topspin (omega R ~ 1.5 m/s at the contact point),
    which measured 0.3-0.5 m/s of error in v_out when ignored. The spin stays with the ball, so

@@ -5,7 +5,7 @@ from a ``numpy.random.Generator`` seeded per episode, so any episode can be repl
 (docs/serves.md).
 
 - ``default``: a launcher 0.2 m behind the opponent's table edge and 0.15 m above the surface (the
-  MPI lab's ball gun, facts.md section 2). Its lateral position x0 and launch velocity are drawn
+  MPI lab's ball gun, docs/constants.md). Its lateral position x0 and launch velocity are drawn
   uniformly from a band that contains every valid serve (:func:`default_proposal`), and a draw is
   kept only if the ball model predicts one bounce on the robot's half, net clearance, and a
   crossing of the virtual hitting plane inside :data:`HITTING_REGION`. With ``spin_max`` > 0 each

@@ -11,21 +11,21 @@ Conventions
   pointing from the base plate toward the shoulder (the base plate is ``BASE_TO_SHOULDER`` below
   the shoulder along ``-z_0``). ``x_0`` is the robot's front: positive ``q_2`` and positive ``q_4``
   move the hand toward ``+x_0``. Frame 7 is the tool flange (Barrett's end-effector frame).
-* Racket (facts.md section 2, MPI lab): the blade centre is ``RACKET.center_offset`` = 0.30 m
-  along ``z_7``; the racket normal is ``y_7`` (the blade disc is rotated -90 deg about ``x_7``).
-  The *racket-centre frame* ``C`` is frame 7 translated to the blade centre, same axes: ``y_C`` is
-  the racket normal, ``z_C`` runs from the handle through the blade (in the blade plane).
+* Racket (docs/constants.md, "The MPI lab's setup"): the blade centre is ``RACKET.center_offset`` =
+  0.30 m along ``z_7``; the racket normal is ``y_7`` (the blade disc is rotated -90 deg about
+  ``x_7``). The *racket-centre frame* ``C`` is frame 7 translated to the blade centre, same axes:
+  ``y_C`` is the racket normal, ``z_C`` runs from the handle through the blade (in the blade plane).
 * World placement (the ceiling mount): :func:`shoulder_pose_in_world`, built from
   :data:`tt_drake.constants.MOUNT` and :data:`BASE_ROTATION`.
 
-Inertial parameters: Barrett's inertial specification AC-02 as listed in facts.md section 3. They
-were checked against the DH frames (see ``LinkInertia`` and tests/systems/test_wam.py): each centre
-of mass is given in its link's DH frame ``i`` (link 3's CoM at y = 0.21 m lies on the upper arm,
-which runs from the elbow at the frame-3 origin back to the shoulder along ``+y_3``); the listed
-inertias are taken about the DH frame *origin*, not the CoM, and the three off-diagonal numbers are
-*products* of inertia ``P_xy = +integral(x y dm)``, i.e. the tensor entries are ``-P``. Only that
-reading gives a physically valid inertia about the CoM for every link (with the opposite sign
-the tensors of links 3 and 6 about their CoM are not positive definite), and it reproduces
+Inertial parameters: Barrett's inertial specification AC-02 as listed in docs/constants.md, "Barrett
+WAM". They were checked against the DH frames (see ``LinkInertia`` and tests/systems/test_wam.py):
+each centre of mass is given in its link's DH frame ``i`` (link 3's CoM at y = 0.21 m lies on the
+upper arm, which runs from the elbow at the frame-3 origin back to the shoulder along ``+y_3``); the
+listed inertias are taken about the DH frame *origin*, not the CoM, and the three off-diagonal
+numbers are *products* of inertia ``P_xy = +integral(x y dm)``, i.e. the tensor entries are ``-P``.
+Only that reading gives a physically valid inertia about the CoM for every link (with the opposite
+sign the tensors of links 3 and 6 about their CoM are not positive definite), and it reproduces
 Barrett's at-the-CoM values (e.g. link 1: I_xx = 0.29486 - m (c_y^2 + c_z^2) = 0.13488 kg m^2).
 """
 
@@ -51,7 +51,8 @@ class DHRow:
     d: float
 
 
-# Barrett WAM user manual, 7-DoF (facts.md section 3). Joint angle offsets are all zero.
+# Barrett WAM user manual, 7-DoF (docs/constants.md, "Barrett WAM"). Joint angle offsets are all
+# zero.
 DH_TABLE: tuple[DHRow, ...] = (
     DHRow(0.0, -math.pi / 2, 0.0),
     DHRow(0.0, math.pi / 2, 0.0),
@@ -69,26 +70,27 @@ RACKET_LINK = "racket"
 RACKET_CENTER_FRAME = "racket_center"
 RACKET_BLADE_GEOMETRY = "racket_blade"
 
-# Joint position limits (rad) of the MPI table-tennis WAM (facts.md section 3): the manual's limits
+# Joint position limits (rad) of the MPI table-tennis WAM (docs/constants.md): the manual's limits
 # except J5 -4.8..1.3 and J7 +-2.2 (racket mount).
 JOINT_LOWER: tuple[float, ...] = (-2.6, -2.0, -2.8, -0.9, -4.8, -1.6, -2.2)
 JOINT_UPPER: tuple[float, ...] = (2.6, 2.0, 2.8, 3.1, 1.3, 1.6, 2.2)
-# Joint speed bound of the lab's trajectory optimisers (facts.md section 2), rad/s.
+# Joint speed bound of the lab's trajectory optimisers (docs/constants.md), rad/s.
 VELOCITY_LIMIT: tuple[float, ...] = (10.0,) * NUM_JOINTS
-# Torque limits of the lab's code (facts.md section 3), N m. Adequate for holding the arm and
+# Torque limits of the lab's code (docs/constants.md), N m. Adequate for holding the arm and
 # racket: the gravity torques at AWAITING are (0, 13.3, -4.0, 5.0, -0.38, -0.26, 0.0001) N m, at
 # most 17 % of a limit (tests/systems/test_wam.py checks < 50 %). The wrist limits (3, 4, 1 N m)
 # are what a fast stroke can saturate: the racket alone has ~0.02 kg m^2 about the wrist.
 EFFORT_LIMIT: tuple[float, ...] = (75.0, 125.0, 39.0, 30.0, 3.0, 4.0, 1.0)
-# The lab's joint acceleration bound (facts.md section 2), rad/s^2; for planners.
+# The lab's joint acceleration bound (docs/constants.md), rad/s^2; for planners.
 ACCELERATION_LIMIT: tuple[float, ...] = (200.0,) * NUM_JOINTS
 
-# The robot's servo clock (facts.md section 2: "Servo rate 500 Hz"): the controller's set-point is
-# held for one tick (tt_drake.systems.wam.add_servo_hold). The vision systems downstream of the
-# 60 Hz camera and the players look for new data every other tick (PLANNING_RATE): a new frame is
-# acted on within 4 ms per stage, with half the Python calls of every tick (measured: 5-10 % of a
-# learned player's episode), and the two clocks' event times coincide exactly in floating point
-# (the planning period is exactly twice the servo's), so the integrator takes no extra steps.
+# The robot's servo clock (docs/constants.md: the lab's servo rate, 500 Hz): the controller's
+# set-point is held for one tick (tt_drake.systems.wam.add_servo_hold). The vision systems
+# downstream of the 60 Hz camera and the players look for new data every other tick (PLANNING_RATE):
+# a new frame is acted on within 4 ms per stage, with half the Python calls of every tick (measured:
+# 5-10 % of a learned player's episode), and the two clocks' event times coincide exactly in
+# floating point (the planning period is exactly twice the servo's), so the integrator takes no
+# extra steps.
 SERVO_RATE = 500.0  # Hz
 SERVO_PERIOD = 1.0 / SERVO_RATE  # s
 PLANNING_RATE = 0.5 * SERVO_RATE  # Hz
@@ -96,7 +98,8 @@ PLANNING_RATE = 0.5 * SERVO_RATE  # Hz
 
 @dataclass(frozen=True)
 class LinkInertia:
-    """Barrett AC-02 inertial data of one link, exactly as listed (facts.md section 3).
+    """Barrett AC-02 inertial data of one link, exactly as listed (docs/constants.md, "Barrett
+    WAM").
 
     ``com``: centre of mass (m) in the link's DH frame. ``origin_inertia``: (I_xx, P_xy, P_xz, I_yy,
     P_yz, I_zz) in kg m^2 about the DH frame's origin, axes of the DH frame, with products of
@@ -155,7 +158,7 @@ class Racket:
     """The racket on the flange (frame 7); a choice documented here, not a Barrett part.
 
     Blade: a disc of ``blade_radius`` (the MPI code's 0.076 m) and ``blade_thickness`` (10 mm
-    collision disc, thick enough against tunnelling, facts.md section 4), centred
+    collision disc, thick enough against tunnelling, docs/constants.md), centred
     ``center_offset`` along ``z_7`` with its normal along ``y_7``. Handle (with the mount
     adapter): a cylinder along ``z_7`` from the flange to the blade's edge. Masses: a blade with
     two rubbers ~0.12 kg, handle and adapter ~0.05 kg; 0.17 kg in all, a typical racket.

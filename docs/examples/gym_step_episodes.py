@@ -1,5 +1,5 @@
-"""Step-env episodes with fixed policies, recorded for comparing two checkouts (docs/performance.md,
-fifth pass).
+"""Step-env episodes with fixed policies, recorded for comparing two versions of the code
+(docs/performance.md, "The integrator's accuracy").
 
     OPENBLAS_NUM_THREADS=1 python docs/examples/gym_step_episodes.py OUT.json [--episodes 8]
     python docs/examples/gym_step_episodes.py --compare A.json B.json

@@ -1,10 +1,13 @@
 """Time serve episodes with the aerodynamics as a Python LeafSystem against the C++ one, in one
-process, interleaved (docs/performance.md).
+process, interleaved (docs/performance.md, "The serve diagram's Python").
 
-    git show 962fa0c:systems/aerodynamics.py > /tmp/old_aerodynamics.py
-    python docs/examples/lever_aerodynamics.py /tmp/old_aerodynamics.py [--player idle]
+    python docs/examples/lever_aerodynamics.py OLD.py [--player idle]
         [--serves 10] [--seed 3] [--rounds 3] [--library ... --crkr ... --predictor ...]
-    python docs/examples/lever_aerodynamics.py /tmp/old_aerodynamics.py --ball-only
+    python docs/examples/lever_aerodynamics.py OLD.py --ball-only
+
+``OLD.py``: a module defining ``add_aerodynamics`` with the signature of
+:func:`tt_drake.systems.aerodynamics.add_aerodynamics` that adds the same drag and Magnus force
+as a Python LeafSystem.
 
 ``--ball-only``: a spinning serve in the ball-only world (table, net, floor, ball) instead, 1.5 s,
 ``--serves`` times per round.

@@ -1,5 +1,5 @@
-"""A lever on and off in one process, serve by serve (docs/performance.md, fourth and fifth
-passes).
+"""A lever on and off in one process, serve by serve (docs/performance.md, "One lever, one
+process").
 
     OPENBLAS_NUM_THREADS=1 python docs/examples/lever_toggle.py segments [--player momp]
         [--serves 12] [--seed 3] [--perception camera|oracle] [--distribution D] [--record]
@@ -22,18 +22,18 @@ after the other do not. Levers:
   a table made per plan and 32 ticks against one plan evaluation per tick;
 - ``momp-did-nothing``: the MoMP player's planning ticks without anything new return
   ``EventStatus.DidNothing`` against returning nothing;
-- ``fifth-pass``: the last three together;
-- ``guard``: the MoMP player's safety guard (session 8: the measured arm checked against the plan
-  at every planning tick, ``MoMPConfig.hold_error``) on against off (off changes no outcome
+- ``momp-tables``: the last three together;
+- ``guard``: the MoMP player's safety guard (the measured arm checked against the plan at every
+  planning tick, ``MoMPConfig.hold_error``) on against off (off changes no outcome
   unless a stroke would have been held);
-- ``prediction-step`` (analytical): the planner's ball model steps 4 ms
-  (``analytical_player.PREDICTION_STEP``) against 2 ms;
+- ``prediction-step`` (analytical): the planner's ball model steps
+  ``analytical_player.PREDICTION_STEP`` (10 ms) against 2 ms;
 - ``prediction-cutoff`` (analytical): no prediction once the committed stroke is past its
   correction cut-off against predicting from every frame to the episode's end;
 - ``close-aim`` (analytical): a correction's stroke solves its one flight time's outgoing
   velocity alone against ``aim_candidates`` on that one flight time (its clearance and racket
   speed computed and not used);
-- ``seventh-pass``: the last three together.
+- ``teacher-all``: the last three together.
 
 ``--perception oracle --record`` plays the serves as the paper protocol's teacher stage does
 (``tt-drake collect --perception oracle``).
@@ -63,8 +63,8 @@ _PLAYERS = ("momp_player", "analytical_player")  # the crkr player is "momp_play
 
 
 def _aims_before(self, p_hit, v_hit, spin, previous):
-    """``StrokePlanner.aims`` before the seventh pass: a correction's flight time ranked through
-    aim_candidates too."""
+    """``StrokePlanner.aims`` without the close-aim lever: a correction's flight time ranked
+    through aim_candidates too."""
     from tt_drake.racket_law import aim_candidates
 
     cfg = self.config
@@ -103,7 +103,7 @@ def toggles(diagram: ServeDiagram) -> dict:
     def momp_did_nothing(on: bool) -> None:
         momp._NOTHING = momp_nothing if on else None
 
-    def fifth_pass(on: bool) -> None:
+    def momp_tables(on: bool) -> None:
         for lever in (setpoint_table, hold_table, momp_did_nothing):
             lever(on)
 
@@ -132,23 +132,23 @@ def toggles(diagram: ServeDiagram) -> dict:
         else:
             planner.aims = types.MethodType(_aims_before, planner)
 
-    def seventh_pass(on: bool) -> None:
+    def teacher_all(on: bool) -> None:
         for lever in (prediction_step, prediction_cutoff, close_aim):
             lever(on)
 
     return {"prediction-step": prediction_step, "prediction-cutoff": prediction_cutoff,
-            "close-aim": close_aim, "seventh-pass": seventh_pass,
+            "close-aim": close_aim, "teacher-all": teacher_all,
             "segments": segments, "did-nothing": did_nothing, "setpoint-table": setpoint_table,
             "hold-table": hold_table, "momp-did-nothing": momp_did_nothing,
-            "fifth-pass": fifth_pass, "guard": guard}
+            "momp-tables": momp_tables, "guard": guard}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("lever", choices=("segments", "did-nothing", "setpoint-table", "hold-table",
-                                      "momp-did-nothing", "fifth-pass", "guard",
+                                      "momp-did-nothing", "momp-tables", "guard",
                                       "prediction-step", "prediction-cutoff", "close-aim",
-                                      "seventh-pass"))
+                                      "teacher-all"))
     ap.add_argument("--player", default="momp")
     ap.add_argument("--serves", type=int, default=12)
     ap.add_argument("--seed", type=int, default=3)

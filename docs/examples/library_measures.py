@@ -1,4 +1,4 @@
-"""Measurements behind docs/motor_primitives.md section 10 (issue #14, items 2 and 3).
+"""Measurements behind docs/motor_primitives.md section 10 (recorded demonstrations, the gain).
 
     .venv/bin/python docs/examples/library_measures.py DATASET [--train 100] [--what all]
 

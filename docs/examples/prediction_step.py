@@ -7,7 +7,7 @@ launch and every 0.05 s of their model flight): each is predicted to the hitting
 (``PhysicalPredictor`` with ``CompliantBounceBallModel``) at a 0.25 ms reference step and at each
 ``--steps``; prints the CPU time per prediction, whether the same states miss the plane, and the
 largest difference to the reference in position (m), velocity (m/s) and time (s). Used for
-docs/performance.md (third pass: the step of ``diagrams/episodes.py``'s predictions).
+docs/performance.md ("The players' Python": the step of ``diagrams/episodes.py``'s predictions).
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """The floor: what the serve diagram's Python systems cost with nothing to do
-(docs/performance.md, sixth pass).
+(docs/performance.md, "The Python floor, and what is left").
 
     OPENBLAS_NUM_THREADS=1 python docs/examples/python_floor.py [--serves 20] [--seed 3]
 

@@ -16,7 +16,7 @@ hitting point, and the largest difference to the 2 ms prediction in position (m)
 With ``--in-serves N`` it instead plays N serves twice each, the player's model at 2 ms and at
 ``PREDICTION_STEP`` (the order alternating serve by serve, in one process), and prints the CPU
 time of the player's predictions and of the whole serve per serve for each. Used for
-docs/performance.md (seventh pass: ``analytical_player.PREDICTION_STEP``).
+docs/performance.md ("The teacher": ``analytical_player.PREDICTION_STEP``).
 """
 
 from __future__ import annotations

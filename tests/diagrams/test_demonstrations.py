@@ -1,5 +1,5 @@
-"""Recorded demonstrations (issue #14 item 2): the arm's measured joint state during the
-teacher's stroke, and a DMP imitating it."""
+"""Recorded demonstrations (docs/motor_primitives.md section 10): the arm's measured joint state
+during the teacher's stroke, and a DMP imitating it."""
 
 import numpy as np
 import pytest

@@ -1,6 +1,6 @@
 """End-to-end runs of the analytical player (slow: opt in with `make test-slow`).
 
-The issue's full acceptance figures come from `tt-drake serve --player analytical --serves 1000`
+The full figures come from `tt-drake serve --player analytical --serves 1000`
 (see docs/analytical_player.md); these check the same on a small sample, so a regression shows
 without a long run.
 """

@@ -1,4 +1,4 @@
-"""Faults as scenario settings (issue #18 item 4): the camera, the launcher's ranges and the
+"""Faults as scenario settings (docs/faults.md): the camera, the launcher's ranges and the
 controller's model mismatch are scenario fields, validated on load, off by default, and do what
 their docstrings say."""
 

@@ -1,12 +1,12 @@
 """Serve 135 of ``tt-drake serve --player momp --artefacts hard --distribution spin --seed 2027``
-(issue #14): the moving goal's plans asked the shoulder up to 1.42x its effort limit for 0.12 s
-(inside the player's old 1.5x budget); the saturated shoulder under the inverse-dynamics
-controller drove the arm to 202 rad/s and a joint 9.3 rad past its limit. With the moving goal's
-budget of 1.2x no actuator saturates; with the old budget, the hold stops the arm.
-Each test builds the hard set's diagram and plays one serve, with the spinless hitting
-configuration the player had then: since its configuration takes the predicted spin
-(docs/learned_player.md, "Why the hard player's returns scatter") the same serve is returned
-under either budget (peak 5.6 rad/s), so the mechanism is tested on the stroke that showed it."""
+with the spinless hitting configuration (docs/learned_player.md, "Serve 135"): under a 1.5x
+effort budget the moving goal's plans ask the shoulder up to 1.42x its effort limit for 0.12 s,
+and the saturated shoulder under the inverse-dynamics controller drives the arm to 202 rad/s and
+a joint 9.3 rad past its limit. With the moving goal's budget of 1.2x no actuator saturates;
+with 1.5x, the hold stops the arm. Each test builds the hard set's diagram and plays that one
+serve with the spinless configuration, the stroke on which the mechanism shows: with the
+predicted spin in the configuration (docs/learned_player.md, "Why the hard player's returns
+scatter") the serve is returned under either budget (peak 5.6 rad/s)."""
 
 import pytest
 

@@ -38,9 +38,8 @@ def _spy_results(monkeypatch) -> list:
 
 @pytest.mark.parametrize("player", ["idle", "analytical", "momp", "crkr"])
 def test_recording_does_not_change_the_serves(player, tmp_path, monkeypatch):
-    """The same command with and without --html: the same episodes, serve by serve (issue 18:
-    with --html each episode used to start where the previous one ended, and serve 2 landed
-    26 cm away from where it lands without the recording)."""
+    """The same command with and without --html: the same episodes, serve by serve (each
+    recorded episode is simulated from t = 0 with the same context reset as any other)."""
     runs = _spy_results(monkeypatch)
     scenario = _scenario()
     plain_json, rec_json, page = (tmp_path / "plain.json", tmp_path / "rec.json",

@@ -1,7 +1,6 @@
-"""Issue 18's defects, one test each: bad numbers never give a wrong answer, bad input is one line
-and exit status 2, outputs survive a full disk, caches survive damage, run folders are locked.
-
-Each test failed on the code before the fix (docs/robustness.md lists them with the fix)."""
+"""The robustness guards, one test each: bad numbers never give a wrong answer, bad input is one
+line and exit status 2, outputs survive a full disk, caches survive damage, run folders are locked
+(docs/robustness.md lists the risks and their guards)."""
 
 import fcntl
 import json

@@ -1,4 +1,4 @@
-"""``tt-drake serves --info`` and the serve options of issue 13: bad input is one line on
+"""``tt-drake serves --info`` and the serve options (docs/serves.md): bad input is one line on
 stderr, exit status 2 and no output file."""
 
 import json

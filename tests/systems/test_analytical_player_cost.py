@@ -1,4 +1,4 @@
-"""The analytical player's cheaper planning (docs/performance.md, "Seventh pass"): each change
+"""The analytical player's cheaper planning (docs/performance.md, "The teacher"): each change
 computes the same stroke as the work it saves."""
 
 import numpy as np

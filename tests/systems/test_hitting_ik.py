@@ -239,7 +239,7 @@ def test_free_spin_velocities_give_the_blade_velocity_with_smaller_joint_speeds(
 
 
 def _independent_holding_torques(q):
-    """The torque that holds the arm still at q, from the facts.md link masses and centres of
+    """The torque that holds the arm still at q, from the AC-02 link masses and centres of
     mass on the independent DH chain of test_wam (not through the plant): joint k carries
     sum over links j >= k of ((p_j - o_k) x m_j g) . z_k, with the opposite sign."""
     from tests.systems.test_wam import (

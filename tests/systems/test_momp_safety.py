@@ -1,4 +1,4 @@
-"""The learned player's safety behaviours (issue #14, serve 135 of the hard set's spin run): the
+"""The learned player's safety behaviours (docs/learned_player.md, "Serve 135"): the
 arm holds when it no longer follows the plan, a refused move of the goal is retried only when
 something that can change the verdict changed, and the moving goal's effort budget."""
 

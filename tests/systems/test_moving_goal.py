@@ -1,5 +1,6 @@
-"""The hitting DMP's moving goal (issue #14): during the hitting stage, until the cut-off, a new
-prediction moves the stroke's goal; the paper profile's player (no cut-off) stays committed."""
+"""The hitting DMP's moving goal (docs/learned_player.md): during the hitting stage, until the
+cut-off, a new prediction moves the stroke's goal; the paper profile's player (no cut-off) stays
+committed."""
 
 import numpy as np
 

@@ -52,7 +52,8 @@ class ArmWorld:
 
 @pytest.fixture(scope="module", params=["recipe", "default scenario"])
 def arm(request):
-    """At DESIGN.md's recipe (accuracy 1e-4) and the default scenario's simulator settings."""
+    """At the simulation recipe of docs/design.md (accuracy 1e-4) and the default scenario's
+    simulator settings."""
     if request.param == "recipe":
         return ArmWorld()
     from tt_drake.diagrams.scenario import load_scenario
@@ -61,7 +62,7 @@ def arm(request):
 
 
 def test_racket_restitution_at_8_m_per_s(arm):
-    # MPI simulator's racket restitution 0.78 (facts.md section 1), tolerance 0.03.
+    # MPI simulator's racket restitution 0.78 (docs/constants.md), tolerance 0.03.
     t, p, v, n = arm.shoot(0.06, 8.0, 0.03)
     vn = v @ n
     gap = (p - arm.racket.translation()) @ n  # ball centre in front of the blade

@@ -1,4 +1,4 @@
-"""The predicted spin at impact in the learned player's stimulus (issue #14 item 3): the
+"""The predicted spin at impact in the learned player's stimulus (docs/motor_primitives.md): the
 predictor's ``spin_hit`` output and the MoMP player's gating on it."""
 
 import numpy as np

@@ -1,7 +1,9 @@
-"""The WAM model in Drake against facts.md section 3, computed independently of the model code.
+"""The WAM model in Drake against docs/constants.md, "Barrett WAM", computed independently of the
+model code.
 
 The forward kinematics and gravity torques here are written from the Spong DH table and the
-AC-02 inertial list directly (facts.md numbers typed in below), not through tt_drake.wam_params.
+AC-02 inertial list directly (the numbers of docs/constants.md typed in below), not through
+tt_drake.wam_params.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from tt_drake.constants import CONTACT, MOUNT, TABLE
 from tt_drake.modelgen import wam as wam_gen
 from tt_drake.systems import wam
 
-# facts.md section 3: (a, alpha, d) for joints 1..7, Spong convention.
+# docs/constants.md, Barrett WAM: (a, alpha, d) for joints 1..7, Spong convention.
 FACTS_DH = [(0.0, -math.pi / 2, 0.0), (0.0, math.pi / 2, 0.0), (0.045, -math.pi / 2, 0.55),
             (-0.045, math.pi / 2, 0.0), (0.0, -math.pi / 2, 0.3), (0.0, math.pi / 2, 0.0),
             (0.0, 0.0, 0.06)]
@@ -35,7 +37,7 @@ FACTS_LINK_COM = [(-0.0044342, 0.12189, -0.00066489), (-0.0023698, 0.031056, 0.0
                   (0.00008921, 0.0051122, 0.0043582), (0.00012262, -0.017032, 0.024683),
                   (-0.00007974, 0.00016313, -0.0032355)]
 FACTS_BASE_MASS = 9.9706
-RACKET_OFFSET = 0.30  # blade centre along z_7 (facts.md section 2)
+RACKET_OFFSET = 0.30  # blade centre along z_7 (docs/constants.md)
 G = 9.81
 
 
@@ -160,8 +162,9 @@ def test_masses_match_facts(arm):
 
 
 def test_centres_of_mass_in_dh_frames(arm):
-    """Each link's CoM sits where facts.md puts it in DH frame i, and that place is on the link:
-    the upper arm's CoM lies between shoulder and elbow, the forearm's between elbow and wrist."""
+    """Each link's CoM sits where docs/constants.md puts it in DH frame i, and that place is on the
+    link: the upper arm's CoM lies between shoulder and elbow, the forearm's between elbow and
+    wrist."""
     plant, _, instance, _, _ = arm
     context = _plant_context(arm)
     q = np.array(wam_params.AWAITING)

@@ -10,8 +10,8 @@ from tt_drake.diagrams.ball_world import BallOnlyWorld
 
 @pytest.fixture(scope="module", params=["recipe", "default scenario"])
 def world(request):
-    """The ball world at DESIGN.md's recipe (accuracy 1e-4) and at the shipped default
-    scenario's simulator settings (1e-4 near contacts, 1e-3 in flight: ContactAccuracy,
+    """The ball world at the simulation recipe of docs/design.md (accuracy 1e-4) and at the shipped
+    default scenario's simulator settings (1e-4 near contacts, 1e-3 in flight: ContactAccuracy,
     docs/performance.md): every check holds at both."""
     if request.param == "recipe":
         return BallOnlyWorld()

@@ -17,7 +17,7 @@ def test_restitution_matches_first_order_theory_for_small_dissipation():
 
 
 def test_restitution_decreases_with_impact_speed_and_matches_drake_measurements():
-    # Drake measurements (facts.md section 4) for a surface of k = 1e5 N/m, stiff ball.
+    # Drake measurements (docs/constants.md) for a surface of k = 1e5 N/m, stiff ball.
     measured = {(0.04, 2.0): 0.949, (0.06, 4.0): 0.862, (0.08, 2.43): 0.884, (0.04, 8.0): 0.825}
     for (d, v), e in measured.items():
         assert hunt_crossley_restitution(d, v) == pytest.approx(e, abs=0.003)

@@ -1,5 +1,5 @@
-"""DESIGN.md's layering: the algorithms in tt_drake/ import no pydrake (fast to test, usable
-outside Drake); only tt_drake.systems and tt_drake.diagrams may."""
+"""The layering of docs/design.md: the algorithms in tt_drake/ import no pydrake (fast to test,
+usable outside Drake); only tt_drake.systems and tt_drake.diagrams may."""
 
 import pkgutil
 import subprocess

@@ -1,5 +1,5 @@
-"""Stimulus layouts (issue #14 item 3): recorded in the learned artefacts; the shipped 6-D ones
-load and gate as before; a mismatched stimulus fails clearly."""
+"""Stimulus layouts: recorded in the learned artefacts; the shipped 6-D ones load and gate as the
+paper's stimulus; a mismatched stimulus fails clearly."""
 
 import numpy as np
 import pytest

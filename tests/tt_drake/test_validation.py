@@ -1,7 +1,6 @@
-"""Issue 18: every artefact array is checked at load (declared size before reading, finite values,
-shapes and signs), so a damaged or edited file fails with one line instead of a wrong answer.
-
-Each test failed on the code before the fix (docs/robustness.md)."""
+"""Every artefact array is checked at load (declared size before reading, finite values, shapes
+and signs), so a damaged or edited file fails with one line instead of a wrong answer
+(docs/robustness.md)."""
 
 import io
 import json

@@ -13,7 +13,7 @@
 
 The environments live in :mod:`tt_drake.diagrams.gym_envs` (spaces, reward and options are
 documented there and in docs/gym.md); this module only registers them, by name, so that it
-imports no pydrake (DESIGN.md's layering).
+imports no pydrake (docs/design.md, "Layout and layering").
 """
 
 from gymnasium.envs.registration import register, registry

@@ -14,7 +14,7 @@ Inertials and geometry below are written in DH frame ``i`` and mapped through th
 centre, 0.30 m along ``z_7``, with the racket normal as its ``y`` axis.
 
 Collision geometry only on the forearm (link 4), the wrist (links 5, 6) and the racket blade,
-each with explicit Drake point-contact properties (facts.md section 4); a
+each with explicit Drake point-contact properties (docs/constants.md); a
 ``drake:collision_filter_group`` keeps the robot from colliding with itself.
 """
 

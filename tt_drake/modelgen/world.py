@@ -1,6 +1,6 @@
 """SDF text for the static world (ITTF table, net with posts, floor) and the ball.
 
-Every collision geometry carries explicit Drake point-contact properties (facts.md section 4: with
+Every collision geometry carries explicit Drake point-contact properties (docs/constants.md: with
 only friction set, Drake's fallback makes the ball stick to the table).
 """
 
@@ -59,7 +59,7 @@ def table_world_sdf() -> str:
     body = _box("table_top_visual", (0, 0, top_z), (t.width, t.length, t.thickness),
                 (0.05, 0.2, 0.45, 1), None)
     # The collision box is thicker than the visual top (same surface) so that a fast ball cannot
-    # step past its mid-plane in one integrator step (facts.md section 4).
+    # step past its mid-plane in one integrator step (docs/constants.md).
     coll_z = t.surface_z - 0.5 * t.collision_thickness
     body += _box("table_top", (0, 0, coll_z), (t.width, t.length, t.collision_thickness), None,
                  CONTACT.surface("table"))
