@@ -25,8 +25,9 @@ from dataclasses import dataclass
 
 from tt_drake.constants import PLANES
 from tt_drake.diagrams.episodes import add_analytical_player
-from tt_drake.diagrams.scenario import Scenario
+from tt_drake.diagrams.scenario import LearnedPlayerConfig, Scenario
 from tt_drake.hitting_time import HittingBand
+from tt_drake.models import use_artefact_set
 from tt_drake.systems.analytical_player import PlannerConfig
 
 
@@ -35,13 +36,16 @@ class OracleStrategy:
     """One way the oracle teacher may play a serve: ``target`` (x, y on the opponent's half,
     m; None: the scenario's referee target), ``band`` (None: the hitting plane only), the
     hitting plane ``plane_y`` (m) and the spin shares its strokes may compensate
-    (``PlannerConfig.stroke_spins``; None: the teacher's)."""
+    (``PlannerConfig.stroke_spins``; None: the teacher's). With ``artefacts`` (a shipped set's
+    name, :data:`tt_drake.models.ARTEFACT_SETS`) the strategy is instead the learned ``momp``
+    player with that set, its other settings unused."""
 
     name: str
     target: tuple[float, float] | None = None
     band: HittingBand | None = HittingBand()
     plane_y: float = PLANES.hitting_y
     stroke_spins: tuple[float, ...] | None = None
+    artefacts: str | None = None
 
     def planner_config(self, scenario: Scenario) -> PlannerConfig:
         x, y = self.target or (scenario.referee.target_x, scenario.referee.target_y)
@@ -54,8 +58,9 @@ class OracleStrategy:
 #: The strategies of the bound, in the order they are tried (module docstring): the teacher as
 #: it plays (its fallbacks included: strokes compensating half or none of the spin, the ball off
 #: the blade's centre), then hitting higher or lower along the path (the height band) and on
-#: hitting planes 0.17 m nearer and farther; and strokes that ignore the spin from the start
-#: (the teacher's fallbacks reach a spin-blind stroke only after every full-spin one fails).
+#: hitting planes 0.17 m nearer and farther; strokes that ignore the spin from the start (the
+#: teacher's fallbacks reach a spin-blind stroke only after every full-spin one fails); and the
+#: learned player with the hard set, whose primitives reach balls the teacher's IK does not.
 STRATEGIES: tuple[OracleStrategy, ...] = (
     OracleStrategy("teacher"),
     OracleStrategy("high-band", band=HittingBand(plane_z_min=0.6, z_min=0.8)),
@@ -65,6 +70,7 @@ STRATEGIES: tuple[OracleStrategy, ...] = (
     OracleStrategy("spin-blind", stroke_spins=(0.0,)),
     OracleStrategy("low-band-blind", band=HittingBand(plane_z_min=0.4, z_min=0.55),
                    stroke_spins=(0.0,)),
+    OracleStrategy("hard-set", artefacts="hard"),
 )
 
 
@@ -75,9 +81,22 @@ def oracle_scenario(scenario: Scenario) -> Scenario:
     return oracle
 
 
-def strategy_player(strategy: OracleStrategy) -> Callable:
-    """A player function for :class:`tt_drake.diagrams.episodes.ServeDiagram`: the analytical
-    player planning with ``strategy``'s settings."""
+def strategy_scenario(strategy: OracleStrategy, scenario: Scenario) -> Scenario:
+    """The scenario ``strategy`` plays: a copy of ``scenario`` with the oracle's perception and,
+    for a learned strategy, its shipped artefact set (the caller's is left as it was)."""
+    oracle = oracle_scenario(scenario)
+    if strategy.artefacts is not None:
+        oracle.learned = LearnedPlayerConfig()
+        use_artefact_set(oracle.learned, strategy.artefacts)
+    return oracle
+
+
+def strategy_player(strategy: OracleStrategy) -> Callable | str:
+    """A player for :class:`tt_drake.diagrams.episodes.ServeDiagram`: the analytical player
+    planning with ``strategy``'s settings, or ``momp`` for a learned strategy (its artefacts
+    come with :func:`strategy_scenario`)."""
+    if strategy.artefacts is not None:
+        return "momp"
 
     def add(builder, world, controller, scenario):
         return add_analytical_player(builder, world, controller, scenario,

@@ -67,6 +67,7 @@ from tt_drake.diagrams.ceiling import (
     oracle_scenario,
     returnable_by,
     strategy_player,
+    strategy_scenario,
 )
 from tt_drake.diagrams.train import HARD_PROFILE, STIFF_HARD_PROFILE
 from tt_drake.outputs import claim_folder, portable_path, write_json_atomic
@@ -737,7 +738,8 @@ def _returnable(run: Run, label: str, scenario, serves: int, seed: int
     def play(strategy, indices):
         if strategy is first:
             return [bool(teacher[i]["returned"]) for i in indices]
-        return run.strategy_returns(folder / f"{strategy.name}.json", oracle, strategy, indices,
+        return run.strategy_returns(folder / f"{strategy.name}.json",
+                                    strategy_scenario(strategy, scenario), strategy, indices,
                                     seed, desc=f"oracle {strategy.name} ({label} serves)")
 
     return teacher, returnable_by(play, serves)

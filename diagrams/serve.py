@@ -15,9 +15,9 @@ from tqdm import tqdm
 
 from tt_drake.diagrams.ceiling import (
     ceiling_summary,
-    oracle_scenario,
     returnable_by,
     strategy_player,
+    strategy_scenario,
 )
 from tt_drake.diagrams.episodes import ServeDiagram, check_run, episode_seed, summarize
 from tt_drake.diagrams.scenario import Scenario, dump_scenario, resolve_model_paths
@@ -195,13 +195,12 @@ def returnable_serves(scenario: Scenario, serves: int, seed: int, progress: bool
     """For each serve of the run (episode i: ``episode_seed(seed, i)``, the pools dealt by
     ``scenario.launcher.run_seed``), the first oracle strategy that returns it legally, or None
     (:func:`tt_drake.diagrams.ceiling.returnable_by`). ``scenario`` is left as it was."""
-    oracle = oracle_scenario(scenario)
 
     def play(strategy, indices):
         seeds = [episode_seed(seed, i) for i in indices]
         return [r.outcome.returned for r in _episodes(
-            oracle, strategy_player(strategy), seeds, progress, workers,
-            label=f"oracle {strategy.name}")]
+            strategy_scenario(strategy, scenario), strategy_player(strategy), seeds, progress,
+            workers, label=f"oracle {strategy.name}")]
 
     return returnable_by(play, serves)
 

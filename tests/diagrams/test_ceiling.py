@@ -124,3 +124,18 @@ def test_ceiling_from_reads_an_earlier_runs_bound_of_the_same_serves(tmp_path):
     path.write_text(json.dumps({"episodes": [{"seed": 1}]}))
     with pytest.raises(serve_module.CeilingFileError, match="not a serve --ceiling --json"):
         serve_module.read_returnable(str(path), None)
+
+
+def test_a_learned_strategy_plays_the_shipped_set_with_the_oracles_perception():
+    from tt_drake.diagrams.ceiling import strategy_scenario
+    from tt_drake.models import shipped_artefact
+
+    learned = next(s for s in STRATEGIES if s.artefacts is not None)
+    scenario = Scenario()
+    played = strategy_scenario(learned, scenario)
+    assert strategy_player(learned) == "momp"
+    assert played.perception == "oracle" and scenario.perception == "camera"
+    assert played.learned.library == str(shipped_artefact("library", learned.artefacts))
+    assert scenario.learned.library == ""
+    teacher = strategy_scenario(STRATEGIES[0], scenario)
+    assert teacher.learned == scenario.learned and teacher.perception == "oracle"
