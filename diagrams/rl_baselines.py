@@ -45,6 +45,7 @@ import gymnasium
 import numpy as np
 
 import tt_drake.gym  # noqa: F401  (registers the environments)
+from tt_drake.intervals import wilson
 from tt_drake.outputs import write_json_atomic, write_text_atomic
 from tt_drake.seeds import episode_seed
 
@@ -79,17 +80,6 @@ class SeededServes(gymnasium.Wrapper):
         self.k += 1
         self.serve_seeds.append(serve)
         return self.env.reset(seed=seed, options={**(options or {}), "serve_seed": serve})
-
-
-def wilson(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    """The Wilson score 95 % interval of a rate: (p + z^2/2n -+ z sqrt(p(1-p)/n + z^2/4n^2))
-    / (1 + z^2/n)."""
-    if n == 0:
-        return (0.0, 1.0)
-    p = successes / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return (max(0.0, centre - half), min(1.0, centre + half))
 
 
 def make_env(serves: str, reward: str = "shaped"):

@@ -21,6 +21,7 @@ from tt_drake.diagrams.ceiling import (
 )
 from tt_drake.diagrams.episodes import ServeDiagram, check_run, episode_seed, summarize
 from tt_drake.diagrams.scenario import Scenario, dump_scenario, resolve_model_paths
+from tt_drake.intervals import wilson
 from tt_drake.outputs import check_writable, write_json_atomic, write_text_atomic
 from tt_drake.provenance import run_provenance
 from tt_drake.result_fields import serve_fields
@@ -205,11 +206,18 @@ def returnable_serves(scenario: Scenario, serves: int, seed: int, progress: bool
     return returnable_by(play, serves)
 
 
+def _interval(rate: float, n: int) -> str:
+    """The Wilson 95 % interval of a rate of n trials, as "[lo, hi]" in per cent."""
+    lo, hi = wilson(round(rate * n), n)
+    return f"[{lo:.1%}, {hi:.1%}]"
+
+
 def format_summary(data: dict) -> str:
     s = data["summary"]
     line = (f"{data['player']} player, {s['serves']} {data['distribution']} serves (seed "
-            f"{data['seed']}): hit {s['hit_rate']:.1%}, legal return {s['return_rate']:.1%}, "
-            f"on target {s['target_rate']:.1%}, mean reward {s['mean_reward']:.3f}")
+            f"{data['seed']}): hit {s['hit_rate']:.1%}, legal return {s['return_rate']:.1%} "
+            f"{_interval(s['return_rate'], s['serves'])}, on target {s['target_rate']:.1%}, "
+            f"mean reward {s['mean_reward']:.3f}")
     if s.get("double_bounce_faults"):
         line += f", {s['double_bounce_faults']} hit after a double bounce (lost points)"
     if "returnable_rate" in s:
@@ -217,6 +225,7 @@ def format_summary(data: dict) -> str:
         line += (f"; returnable (oracle strategies) {s['returnable_rate']:.1%} "
                  f"({s['returnable_serves']} serves), legal returns of those "
                  f"{s['returns_of_returnable']} = "
-                 + ("n/a" if of is None else f"{of:.1%}")
+                 + ("n/a" if of is None else
+                    f"{of:.1%} {_interval(of, s['returnable_serves'])}")
                  + f", legal returns outside the bound {s['returns_outside_ceiling']}")
     return line

@@ -40,8 +40,8 @@ Discrete state: ``[n_collected, last_t, observations (4 x 6), p_hit (3), v_hit (
 valid, final, spin_hit (3), first_bounce, bounces]``; outputs copy slices of it. The last two
 count the ball's bounces on the robot's half as the refreshed predictions see them
 (:class:`tt_drake.hitting_time.BounceCount`, -1: none yet). When the rules leave no hitting
-point (the second bounce seen, or after the first none before the second predicted) the
-prediction is withdrawn: ``valid`` returns to 0, and a learned player lets the ball go.
+point (the second bounce seen) the prediction is withdrawn: ``valid`` returns to 0, and a
+learned player not yet in its hitting stage lets the ball go.
 """
 
 import math
@@ -147,9 +147,11 @@ class HittingPointPredictor(LeafSystem):
         """The physical prediction from an estimate after the robot-side bounce, if it moved
         more than ``refresh_tolerance`` from the published one; else None. ``bounces``: the
         ball's bounces on the robot's half so far. Returns ``WITHDRAW`` when the rules leave no
-        hitting point: the ball has bounced twice on the robot's half, or it has bounced once
-        and the model finds no point before its second bounce (Law 2.10.1.3: the point is
-        lost, and a player should let the ball go)."""
+        hitting point: the ball has bounced twice on the robot's half (Law 2.10.1.3: the point
+        is lost, and a player should let the ball go), or, hitting at the plane only, the model
+        predicts the second bounce before the plane. A band that finds no point for one
+        estimate withdraws nothing: near the band's edges that flickers with the estimate's
+        noise, and the stroke planned on the last point may still return the ball."""
         if s[4] >= 0.0 or s[1] >= self.observation_y:
             return None
         if bounces >= 2:
@@ -161,8 +163,6 @@ class HittingPointPredictor(LeafSystem):
         else:
             hit = choose_hitting_point(self.refresh.model, _with_spin(s, spin),
                                        self.refresh.plane_y, self.band, bounces_behind=bounces)
-            if hit is None and bounces == 1:
-                return WITHDRAW
         if hit is None or hit.bounces:
             return None  # the robot-side bounce is still ahead
         pred = np.concatenate([hit.position, hit.velocity, [hit.t], hit.spin])

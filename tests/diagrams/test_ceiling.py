@@ -89,7 +89,8 @@ def test_serve_ceiling_plays_the_same_serves_with_the_oracle_strategies(monkeypa
     assert [e["returnable_by"] for e in data["episodes"]] == [
         "teacher", "teacher", None, None, second]
     line = serve_module.format_summary(data)
-    assert "legal return 60.0%" in line and "legal returns outside the bound 1" in line
+    assert "legal return 60.0% [23.1%, 88.2%]" in line  # Wilson's 95 % interval of 3 in 5
+    assert "legal returns outside the bound 1" in line
 
 
 def test_a_strategy_plays_the_analytical_player_with_its_settings():

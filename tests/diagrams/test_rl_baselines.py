@@ -11,15 +11,16 @@ import numpy as np
 import pytest
 
 from tt_drake.diagrams import rl_baselines as rl
+from tt_drake.intervals import wilson
 from tt_drake.seeds import episode_seed
 
 
 def test_wilson_interval_matches_the_formula_and_stays_in_0_1():
-    lo, hi = rl.wilson(67, 100)
+    lo, hi = wilson(67, 100)
     # p = 0.67, z = 1.96: centre 0.66371, half width 0.09066
     assert (lo, hi) == pytest.approx((0.5731, 0.7544), abs=1e-4)
-    assert rl.wilson(0, 50)[0] == 0.0 and 0.06 < rl.wilson(0, 50)[1] < 0.08
-    assert rl.wilson(50, 50)[1] == 1.0
+    assert wilson(0, 50)[0] == 0.0 and 0.06 < wilson(0, 50)[1] < 0.08
+    assert wilson(50, 50)[1] == 1.0
 
 
 def test_cmaes_run_resumes_on_the_same_serves_and_evaluates_on_others(tmp_path, capsys):

@@ -280,8 +280,8 @@ def test_a_ball_bouncing_twice_on_the_robots_half_loses_its_prediction(band):
     """The rules end the hitting window at the second bounce on the receiver's half: a short
     ball that bounces at y = -0.52 m and again at -1.01 m before the hitting plane has a
     prediction before its robot-side bounce (the plane crossing), which the refresh withdraws
-    (``valid`` 0) from the second bounce on at the latest; with the band, already after the first,
-    when the model finds no hitting point before the second."""
+    (``valid`` 0) once the second bounce is behind; with the plane alone, already after the
+    first, when the model predicts the second before the plane."""
     physical = PhysicalPredictor()
     model = physical.model
     launch = np.array([0.0, 0.6, 0.95, 0.0, -3.2, -0.5, 0.0, 0.0, 0.0])
@@ -300,6 +300,6 @@ def test_a_ball_bouncing_twice_on_the_robots_half_loses_its_prediction(band):
     assert any(v == 1.0 for v, n in zip(valid, robot, strict=True) if n == 0)
     last = len(robot) - 1 - robot[::-1].index(1)  # the last frame between the two bounces
     assert all(v == 0.0 for v in valid[last + 2:])
-    if band is not None:
+    if band is None:
         first = robot.index(1)
         assert all(v == 0.0 for v in valid[first + 1:])
