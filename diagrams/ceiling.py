@@ -20,11 +20,12 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from tt_drake.constants import PLANES
-from tt_drake.diagrams.episodes import add_analytical_player
+from tt_drake.constants import PLANES, TABLE
+from tt_drake.diagrams.episodes import add_analytical_player, add_learned_player
 from tt_drake.diagrams.scenario import LearnedPlayerConfig, Scenario
 from tt_drake.hitting_time import HittingBand
 from tt_drake.models import use_artefact_set
@@ -38,7 +39,7 @@ class OracleStrategy:
     hitting plane ``plane_y`` (m) and the spin shares its strokes may compensate
     (``PlannerConfig.stroke_spins``; None: the teacher's). With ``artefacts`` (a shipped set's
     name, :data:`tt_drake.models.ARTEFACT_SETS`) the strategy is instead the learned ``momp``
-    player with that set, its other settings unused."""
+    player with that set and ``band`` (its target, plane and spin shares unused)."""
 
     name: str
     target: tuple[float, float] | None = None
@@ -60,7 +61,8 @@ class OracleStrategy:
 #: the blade's centre), then hitting higher or lower along the path (the height band) and on
 #: hitting planes 0.17 m nearer and farther; strokes that ignore the spin from the start (the
 #: teacher's fallbacks reach a spin-blind stroke only after every full-spin one fails); and the
-#: learned player with the hard set, whose primitives reach balls the teacher's IK does not.
+#: learned player with the hard set, whose primitives reach balls the teacher's IK does not,
+#: hitting off the plane up to 0.08 m (not 0.18 m) behind the table's edge.
 STRATEGIES: tuple[OracleStrategy, ...] = (
     OracleStrategy("teacher"),
     OracleStrategy("high-band", band=HittingBand(plane_z_min=0.6, z_min=0.8)),
@@ -70,7 +72,8 @@ STRATEGIES: tuple[OracleStrategy, ...] = (
     OracleStrategy("spin-blind", stroke_spins=(0.0,)),
     OracleStrategy("low-band-blind", band=HittingBand(plane_z_min=0.4, z_min=0.55),
                    stroke_spins=(0.0,)),
-    OracleStrategy("hard-set", artefacts="hard"),
+    OracleStrategy("hard-set-near", artefacts="hard",
+                   band=HittingBand(y_max=TABLE.robot_edge_y - 0.08)),
 )
 
 
@@ -91,12 +94,12 @@ def strategy_scenario(strategy: OracleStrategy, scenario: Scenario) -> Scenario:
     return oracle
 
 
-def strategy_player(strategy: OracleStrategy) -> Callable | str:
-    """A player for :class:`tt_drake.diagrams.episodes.ServeDiagram`: the analytical player
-    planning with ``strategy``'s settings, or ``momp`` for a learned strategy (its artefacts
-    come with :func:`strategy_scenario`)."""
+def strategy_player(strategy: OracleStrategy) -> Callable:
+    """A player function for :class:`tt_drake.diagrams.episodes.ServeDiagram`: the analytical
+    player planning with ``strategy``'s settings, or for a learned strategy the ``momp`` player
+    with its band (its artefacts come with :func:`strategy_scenario`)."""
     if strategy.artefacts is not None:
-        return "momp"
+        return functools.partial(add_learned_player, band=strategy.band)
 
     def add(builder, world, controller, scenario):
         return add_analytical_player(builder, world, controller, scenario,

@@ -198,14 +198,16 @@ def connect_hitting_chain(builder: DiagramBuilder, predictor, configuration, pla
                     player.GetInputPort("configuration_valid"))
 
 
-def _learned_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario,
-                    primitives: bool = True) -> list:
+def add_learned_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario,
+                       primitives: bool = True, band=None) -> list:
     """The learned player (paper Fig. 1): camera -> estimator -> GPR hitting-point predictor ->
     HittingConfiguration (CrKR or the analytical IK) -> MoMPTrajectorySource -> controller.
 
     Without ``primitives`` (the ``crkr`` player, paper section III-B.2) the trajectory source
     moves between the stages with the teacher's quintics instead of the motor primitives: the
-    learned hitting configuration evaluated on its own."""
+    learned hitting configuration evaluated on its own. ``band``: where the moving goal's
+    refreshed predictions may hit off the plane (:class:`tt_drake.hitting_time.HittingBand`;
+    None: the default band, with the moving goal)."""
     from tt_drake.ball_model import CompliantBounceBallModel
     from tt_drake.hitting_point import PhysicalPredictor
     from tt_drake.hitting_time import HittingBand
@@ -233,7 +235,8 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
     early = refresh if scenario.learned.early_prediction else None
     # With the moving goal the refreshed predictions choose the hitting point as the teacher
     # does (the plane, else along the path: tt_drake.hitting_time).
-    band = HittingBand() if scenario.learned.moving_goal else None
+    if band is None and scenario.learned.moving_goal:
+        band = HittingBand()
     predictor = builder.AddNamedSystem("hitting_point_predictor", HittingPointPredictor(
         gpr=learned["gpr"], early=early, refresh=refresh, band=band))
     builder.Connect(estimator.GetOutputPort("state"), predictor.GetInputPort("state"))
@@ -268,11 +271,11 @@ def _learned_player(builder: DiagramBuilder, world: World, controller, scenario:
 
 
 def _momp_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario) -> list:
-    return _learned_player(builder, world, controller, scenario, primitives=True)
+    return add_learned_player(builder, world, controller, scenario, primitives=True)
 
 
 def _crkr_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario) -> list:
-    return _learned_player(builder, world, controller, scenario, primitives=False)
+    return add_learned_player(builder, world, controller, scenario, primitives=False)
 
 
 PLAYERS: dict[str, Callable] = {"idle": _idle_player, "analytical": add_analytical_player,

@@ -134,7 +134,7 @@ def test_a_learned_strategy_plays_the_shipped_set_with_the_oracles_perception():
     learned = next(s for s in STRATEGIES if s.artefacts is not None)
     scenario = Scenario()
     played = strategy_scenario(learned, scenario)
-    assert strategy_player(learned) == "momp"
+    assert strategy_player(learned).keywords == {"band": learned.band}
     assert played.perception == "oracle" and scenario.perception == "camera"
     assert played.learned.library == str(shipped_artefact("library", learned.artefacts))
     assert scenario.learned.library == ""
