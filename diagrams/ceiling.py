@@ -77,17 +77,11 @@ STRATEGIES: tuple[OracleStrategy, ...] = (
 )
 
 
-def oracle_scenario(scenario: Scenario) -> Scenario:
-    """A copy of ``scenario`` with the oracle's perception (the caller's is left as it was)."""
-    oracle = copy.deepcopy(scenario)
-    oracle.perception = "oracle"
-    return oracle
-
-
 def strategy_scenario(strategy: OracleStrategy, scenario: Scenario) -> Scenario:
     """The scenario ``strategy`` plays: a copy of ``scenario`` with the oracle's perception and,
     for a learned strategy, its shipped artefact set (the caller's is left as it was)."""
-    oracle = oracle_scenario(scenario)
+    oracle = copy.deepcopy(scenario)
+    oracle.perception = "oracle"
     if strategy.artefacts is not None:
         oracle.learned = LearnedPlayerConfig()
         use_artefact_set(oracle.learned, strategy.artefacts)

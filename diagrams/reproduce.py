@@ -64,7 +64,6 @@ from tqdm import tqdm
 from tt_drake.diagrams.ceiling import (
     STRATEGIES,
     ceiling_summary,
-    oracle_scenario,
     returnable_by,
     strategy_player,
     strategy_scenario,
@@ -730,9 +729,9 @@ def _returnable(run: Run, label: str, scenario, serves: int, seed: int
     resumable chunks) and, for each serve, the first strategy that returned it (each later
     strategy's results in ``<strategy>.json``: :meth:`Run.strategy_returns`)."""
     folder = run.folder("ceiling") / label
-    oracle = oracle_scenario(scenario)
     first = STRATEGIES[0]
-    teacher = run.rollouts(folder, oracle, strategy_player(first), serves, seed,
+    teacher = run.rollouts(folder, strategy_scenario(first, scenario), strategy_player(first),
+                           serves, seed,
                            desc=f"oracle {first.name} ({label} serves)")
 
     def play(strategy, indices):

@@ -57,6 +57,7 @@ from tt_drake.hitting_time import (
     choose_hitting_point,
     count_bounces,
     last_robot_bounce,
+    robot_bounces_by,
 )
 from tt_drake.racket_law import (
     FLIGHT_TIMES,
@@ -219,8 +220,7 @@ class StrokePlanner:
             if bounces_behind is None:
                 bounces_behind = int(last_robot_bounce(self.model, np.r_[state6, w],
                                                        step=BOUNCE_TEST_STEP) is not None)
-            ahead = 0 if hit is None else sum(b.position[1] < 0.0 for b in hit.bounces)
-            if bounces_behind + ahead >= 2:
+            if hit is not None and robot_bounces_by(hit, bounces_behind) >= 2:
                 return None  # the plane comes after the second bounce on the robot's half
         else:  # the plane when it serves, else a point along the path (tt_drake.hitting_time)
             hit = choose_hitting_point(self.model, np.r_[state6, w], plane_y,

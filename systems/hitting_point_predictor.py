@@ -51,7 +51,12 @@ from pydrake.systems.framework import EventStatus, LeafSystem
 
 from tt_drake.constants import PLANES
 from tt_drake.hitting_point import N_OBSERVATIONS, HittingPointGPR, PhysicalPredictor
-from tt_drake.hitting_time import BounceCount, choose_hitting_point, count_bounces
+from tt_drake.hitting_time import (
+    BounceCount,
+    choose_hitting_point,
+    count_bounces,
+    robot_bounces_by,
+)
 from tt_drake.wam_params import PLANNING_RATE
 
 _OBS = 2
@@ -158,7 +163,7 @@ class HittingPointPredictor(LeafSystem):
             return WITHDRAW
         if self.band is None:
             hit = self.refresh.model.predict_plane(_with_spin(s, spin), self.refresh.plane_y)
-            if hit is not None and bounces + sum(b.position[1] < 0.0 for b in hit.bounces) >= 2:
+            if hit is not None and robot_bounces_by(hit, bounces) >= 2:
                 return WITHDRAW
         else:
             hit = choose_hitting_point(self.refresh.model, _with_spin(s, spin),

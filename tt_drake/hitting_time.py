@@ -115,6 +115,13 @@ def count_bounces(model: BallModel, count: BounceCount, state, t_state: float,
     return count.seen(None if ago is None else t_state - ago)
 
 
+def robot_bounces_by(hit: PlaneCrossing, bounces_behind: int) -> int:
+    """The ball's bounces on the robot's half (y < 0) when it reaches ``hit``: the
+    ``bounces_behind`` it has made already and those on the way (two or more: the rules' lost
+    point, Law 2.10.1.3)."""
+    return bounces_behind + sum(b.position[1] < 0.0 for b in hit.bounces)
+
+
 def _fall_through(t0, z0, vz0, t1, z1, vz1, level: float) -> float:
     """The time in [t0, t1] at which the cubic Hermite interpolant of z (values and slopes at
     both ends) falls through ``level`` (z0 >= level > z1): bisection, 50 halvings."""

@@ -5,7 +5,14 @@ import pytest
 
 from tt_drake.ball_model import BallModel
 from tt_drake.constants import PLANES
-from tt_drake.hitting_time import BounceCount, HittingBand, choose_hitting_point, last_robot_bounce
+from tt_drake.hitting_point import PhysicalPredictor
+from tt_drake.hitting_time import (
+    BounceCount,
+    HittingBand,
+    choose_hitting_point,
+    last_robot_bounce,
+    robot_bounces_by,
+)
 from tt_drake.serves import ServeSampler
 
 MODEL = BallModel(dt=2e-3)
@@ -105,3 +112,13 @@ def test_a_ball_that_bounced_twice_on_the_robots_half_has_no_hitting_point():
     # hitting point would come after it
     after = MODEL.predict_time(state, second.t + 0.05).state
     assert last_robot_bounce(MODEL, after) == pytest.approx(0.05, abs=MODEL.dt)
+
+
+def test_robot_bounces_by_counts_only_the_robots_half():
+    """A short ball bounces at y = 0.15 m (the opponent's half), -0.52 m and -1.01 m: reaching
+    the hitting plane it has bounced twice on the robot's half, plus any counted before."""
+    model = PhysicalPredictor().model
+    hit = model.predict_plane(np.array([0.0, 0.6, 0.95, 0.0, -3.2, -0.5, 0.0, 0.0, 0.0]),
+                              PLANES.hitting_y)
+    assert [round(float(b.position[1]), 2) for b in hit.bounces] == [0.15, -0.52, -1.01]
+    assert robot_bounces_by(hit, 0) == 2 and robot_bounces_by(hit, 1) == 3
