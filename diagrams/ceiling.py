@@ -1,15 +1,20 @@
 """The returnable bound: which serves the robot's mount can legally return (docs/rules.md).
 
-A serve is **returnable** when at least one *oracle strategy* returns it legally. Every
-strategy is the analytical player (the teacher, docs/analytical_player.md) with ``oracle``
-perception: the simulator's true ball state and spin at the camera's frames, no noise. The
-strategies differ in what a player may choose: where along the ball's path it hits (the hitting
-plane, the height band of :class:`tt_drake.hitting_time.HittingBand`) and where on the
-opponent's court it aims (a legal return need not land on the target); each also has the
-teacher's fallbacks for a stroke the arm cannot make (a racket compensating half or none of the
-spin, the ball met off the blade's centre: :class:`PlannerConfig`). They are
-tried in order, each only on the serves no earlier strategy returned, so the bound costs one
-oracle episode per serve plus one per strategy for each serve the earlier ones missed.
+A serve is **returnable** when at least one *oracle strategy* returns it legally. A strategy is
+the analytical player (the teacher, docs/analytical_player.md), or the learned player with a
+shipped set, with ``oracle`` perception: the simulator's true ball state and spin at the
+camera's frames, no noise. The strategies differ in what a player may choose: where along the
+ball's path it hits (the hitting plane, the height band of
+:class:`tt_drake.hitting_time.HittingBand`) and where on the opponent's court it aims (a legal
+return need not land on the target); each also has the teacher's fallbacks for a stroke the arm
+cannot make (a racket compensating half or none of the spin, the ball met off the blade's
+centre: :class:`PlannerConfig`). The last strategies are the teacher and the learned player with
+the hard set seeing the serve through the camera, with noise streams the evaluated players never
+draw: a stroke at the edge of the arm's reach can succeed when it is planned for a point a
+centimetre or two from the true one and the blade's face still meets the ball, and these draws
+search that neighbourhood of the noiseless plan. They are tried in order, each only on the
+serves no earlier strategy returned, so the bound costs one oracle episode per serve plus one
+per strategy for each serve the earlier ones missed.
 
 The bound is empirical: it bounds a player only if that player returns no serve it calls
 unreturnable. Every ``--ceiling`` summary therefore reports ``returns_outside_ceiling``, the
@@ -39,7 +44,9 @@ class OracleStrategy:
     hitting plane ``plane_y`` (m) and the spin shares its strokes may compensate
     (``PlannerConfig.stroke_spins``; None: the teacher's). With ``artefacts`` (a shipped set's
     name, :data:`tt_drake.models.ARTEFACT_SETS`) the strategy is instead the learned ``momp``
-    player with that set and ``band`` (its target, plane and spin shares unused)."""
+    player with that set and ``band`` (its target, plane and spin shares unused).
+    ``perception``: what the player sees (``oracle``, or ``camera`` with the camera's
+    ``noise_stream``, which must then not be 0, the evaluated players' own stream)."""
 
     name: str
     target: tuple[float, float] | None = None
@@ -47,6 +54,16 @@ class OracleStrategy:
     plane_y: float = PLANES.hitting_y
     stroke_spins: tuple[float, ...] | None = None
     artefacts: str | None = None
+    perception: str = "oracle"
+    noise_stream: int = 0
+
+    def __post_init__(self):
+        if self.perception not in ("oracle", "camera"):
+            raise ValueError(f"strategy {self.name}: perception must be oracle or camera, "
+                             f"not {self.perception!r}")
+        if (self.perception == "camera") != (self.noise_stream > 0):
+            raise ValueError(f"strategy {self.name}: a camera strategy needs a noise stream "
+                             "> 0 (stream 0 is the evaluated players' own), an oracle none")
 
     def planner_config(self, scenario: Scenario) -> PlannerConfig:
         x, y = self.target or (scenario.referee.target_x, scenario.referee.target_y)
@@ -62,7 +79,9 @@ class OracleStrategy:
 #: hitting planes 0.17 m nearer and farther; strokes that ignore the spin from the start (the
 #: teacher's fallbacks reach a spin-blind stroke only after every full-spin one fails); and the
 #: learned player with the hard set, whose primitives reach balls the teacher's IK does not,
-#: hitting off the plane up to 0.08 m (not 0.18 m) behind the table's edge.
+#: hitting off the plane up to 0.08 m (not 0.18 m) behind the table's edge; and the teacher and
+#: the hard set's player (as it ships) through the camera, each with two noise streams of their
+#: own (module docstring).
 STRATEGIES: tuple[OracleStrategy, ...] = (
     OracleStrategy("teacher"),
     OracleStrategy("high-band", band=HittingBand(plane_z_min=0.6, z_min=0.8)),
@@ -74,14 +93,22 @@ STRATEGIES: tuple[OracleStrategy, ...] = (
                    stroke_spins=(0.0,)),
     OracleStrategy("hard-set-near", artefacts="hard",
                    band=HittingBand(y_max=TABLE.robot_edge_y - 0.08)),
+    OracleStrategy("teacher-camera-1", perception="camera", noise_stream=1),
+    OracleStrategy("teacher-camera-2", perception="camera", noise_stream=2),
+    OracleStrategy("hard-set-camera-1", artefacts="hard", band=None, perception="camera",
+                   noise_stream=1),
+    OracleStrategy("hard-set-camera-2", artefacts="hard", band=None, perception="camera",
+                   noise_stream=2),
 )
 
 
 def strategy_scenario(strategy: OracleStrategy, scenario: Scenario) -> Scenario:
-    """The scenario ``strategy`` plays: a copy of ``scenario`` with the oracle's perception and,
-    for a learned strategy, its shipped artefact set (the caller's is left as it was)."""
+    """The scenario ``strategy`` plays: a copy of ``scenario`` with the strategy's perception
+    (and camera noise stream) and, for a learned strategy, its shipped artefact set (the
+    caller's is left as it was)."""
     oracle = copy.deepcopy(scenario)
-    oracle.perception = "oracle"
+    oracle.perception = strategy.perception
+    oracle.camera = dataclasses.replace(oracle.camera, noise_stream=strategy.noise_stream)
     if strategy.artefacts is not None:
         oracle.learned = LearnedPlayerConfig()
         use_artefact_set(oracle.learned, strategy.artefacts)

@@ -53,6 +53,10 @@ class CameraConfig:
     outlier_min: float = 0.1
     outlier_max: float = 0.5
     max_frames: int = 600  # frames drawn per block (10 s at 60 Hz; see the module docstring)
+    # Which of an episode's independent noise sequences the camera draws (0: the episode's
+    # own). Another stream is the same serve seen through other noise: the returnable bound's
+    # camera strategies (docs/rules.md) use streams 1 and 2.
+    noise_stream: int = 0
 
     def __post_init__(self):
         problems = self.problems()
@@ -63,7 +67,7 @@ class CameraConfig:
         """What is wrong with the values (one phrase per field, named with ``prefix``): every
         value finite, rate in (0, MAX_CAMERA_RATE], sigma >= 0, latency in
         [0, MAX_CAMERA_LATENCY], probabilities in [0, 1], 0 <= outlier_min <= outlier_max,
-        max_frames a whole number in [1, MAX_CAMERA_FRAMES]."""
+        max_frames a whole number in [1, MAX_CAMERA_FRAMES], noise_stream a whole number >= 0."""
         out = []
         for name in ("rate", "sigma", "latency", "dropout", "outlier", "outlier_min",
                      "outlier_max"):
@@ -90,6 +94,10 @@ class CameraConfig:
                 or not 1 <= self.max_frames <= MAX_CAMERA_FRAMES):
             out.append(f"{prefix}max_frames must be a whole number in [1, {MAX_CAMERA_FRAMES}], "
                        f"got {self.max_frames!r}")
+        if (isinstance(self.noise_stream, bool) or not isinstance(self.noise_stream, int)
+                or self.noise_stream < 0):
+            out.append(f"{prefix}noise_stream must be a whole number >= 0, got "
+                       f"{self.noise_stream!r}")
         return out
 
     @property
@@ -138,10 +146,16 @@ class CameraModel:
 
     def block_draws(self, seed: int, block: int) -> EpisodeDraws:
         """The random draws of frames ``block n .. (block + 1) n - 1`` (``n = max_frames``) of
-        the episode with ``seed``: a pure function of the seed and the block."""
+        the episode with ``seed``: a pure function of the seed, the block and the config's
+        ``noise_stream`` (stream 0's keys have no stream entry, so they are the same as before
+        streams existed; another stream's have four entries and so differ from all of them)."""
         c = self.config
         n = c.max_frames
-        key = [int(seed) & 0xFFFFFFFFFFFF, 60] + ([int(block)] if block else [])
+        key = [int(seed) & 0xFFFFFFFFFFFF, 60]
+        if c.noise_stream:
+            key += [int(block), int(c.noise_stream)]
+        elif block:
+            key.append(int(block))
         rng = np.random.default_rng(np.random.SeedSequence(key))
         dropped = rng.random(n) < c.dropout
         noise = rng.normal(0.0, c.sigma, (n, 3))

@@ -140,3 +140,22 @@ def test_a_learned_strategy_plays_the_shipped_set_with_the_oracles_perception():
     assert scenario.learned.library == ""
     teacher = strategy_scenario(STRATEGIES[0], scenario)
     assert teacher.learned == scenario.learned and teacher.perception == "oracle"
+
+
+def test_a_camera_strategy_sees_the_serve_through_its_own_noise_stream():
+    """The bound's camera strategies play the teacher through the camera with a noise stream
+    the evaluated players never draw (stream 0 is theirs); an oracle strategy has none."""
+    from tt_drake.diagrams.ceiling import strategy_scenario
+
+    scenario = Scenario()
+    cameras = [s for s in STRATEGIES if s.perception == "camera"]
+    assert sorted(s.noise_stream for s in cameras) == [1, 1, 2, 2]
+    played = strategy_scenario(cameras[0], scenario)
+    assert (played.perception, played.camera.noise_stream) == ("camera", 1)
+    assert scenario.camera.noise_stream == 0
+    oracle = strategy_scenario(STRATEGIES[0], played)
+    assert (oracle.perception, oracle.camera.noise_stream) == ("oracle", 0)
+    with pytest.raises(ValueError, match="noise stream"):
+        OracleStrategy("own-noise", perception="camera")
+    with pytest.raises(ValueError, match="noise stream"):
+        OracleStrategy("oracle-noise", noise_stream=3)

@@ -38,3 +38,28 @@ def test_bad_config_is_refused():
         CameraConfig(dropout=1.5)
     with pytest.raises(ValueError):
         CameraConfig(rate=0.0)
+
+
+def test_a_noise_stream_is_an_independent_draw_of_the_same_seed_and_stream_0_is_unchanged():
+    """Stream 0 keys its generator by (seed, 60[, block]) as always; streams 1 and 2 give other
+    noise of the same distribution, each a pure function of (seed, block, stream)."""
+    seed = 12345
+    own = CameraModel(CameraConfig()).block_draws(seed, 0)
+    rng = np.random.default_rng(np.random.SeedSequence([seed, 60]))
+    rng.random(600)  # the dropout draws come first
+    assert np.array_equal(own.noise, rng.normal(0.0, 0.003, (600, 3)))
+    draws = [CameraModel(CameraConfig(noise_stream=s)).block_draws(seed, b).noise
+             for s in (1, 2) for b in (0, 1)]
+    for i, a in enumerate([own.noise, *draws]):
+        for b in [own.noise, *draws][i + 1:]:
+            assert not np.allclose(a, b)
+    again = CameraModel(CameraConfig(noise_stream=1)).block_draws(seed, 0).noise
+    assert np.array_equal(again, draws[0])
+    pooled = np.concatenate(draws)
+    assert abs(pooled.std() - 0.003) < 0.0002  # sigma = 3 mm, 7,200 draws
+
+
+def test_a_noise_stream_must_be_a_whole_number_of_at_least_zero():
+    for bad in (-1, 1.5, True):
+        with pytest.raises(ValueError, match="noise_stream"):
+            CameraConfig(noise_stream=bad)
