@@ -60,13 +60,13 @@ class _State(Immutable):
     ``started``: when its exchange began; ``incoming``: (speed, spin) of the ball it had to
     return, and whether it was taken at the hit (else at the hitting plane)."""
 
-    __slots__ = ("record", "sample", "q", "events", "started", "incoming")
+    __slots__ = ("record", "sample", "q", "events", "started", "incoming", "outgoing")
 
     def __init__(self, record=None, sample=None, q=None, events=(), started=0.0,
-                 incoming=None):
+                 incoming=None, outgoing=None):
         record = RallyRecord() if record is None else record
         self.record, self.sample, self.q, self.events = record, sample, q, events
-        self.started, self.incoming = started, incoming
+        self.started, self.incoming, self.outgoing = started, incoming, outgoing
 
 
 class _SideRacket(RacketAt):
@@ -129,12 +129,14 @@ class RallyReferee(LeafSystem):
         if old.sample is None:
             out.set_value(_State(record, cur, q, (), t, None))
             return EventStatus.Succeeded()
-        events, incoming = old.events, old.incoming
+        events, incoming, outgoing = old.events, old.incoming, old.outgoing
         event = self.detector.detect(old.sample, cur)
         if event is not None:
             events = (*events, event)
             if event.kind == RACKET_CONTACT and not (incoming and incoming[2]):
                 incoming = _ball_seen(old.sample, at_hit=True)
+            if event.kind == RACKET_CONTACT:  # the ball the racket sent (the last touch's)
+                outgoing = (*cur[1], *cur[2], *cur[3])
         if incoming is None and old.sample[1][1] >= PLANES.hitting_y > cur[1][1]:
             incoming = _ball_seen(cur, at_hit=False)
         floor = cur[1][2] < self._stop_below
@@ -146,13 +148,14 @@ class RallyReferee(LeafSystem):
             hit_time = next(e.t for e in events if e.kind == RACKET_CONTACT)
             speed, spin = incoming[:2] if incoming else (math.nan, (math.nan,) * 3)
             exchanges = (*record.exchanges,
-                         Exchange(r, hit_time, tuple(verdict[1]), speed, spin))
+                         Exchange(r, hit_time, tuple(verdict[1]), speed, spin, outgoing))
             capped = len(exchanges) >= self.config.max_exchanges
             landing_t = events[-1].t
             r = 1 - r
             record = RallyRecord(exchanges, None, capped, capped, r)
             z = events[-1].position[2]
             events, started, incoming = (opening_event(verdict[1], landing_t, z),), landing_t, None
+            outgoing = None
             cur = self._side_sample(t, s[4:7], s[10:13], s[7:10], q, r)
         elif verdict is not None:
             speed, spin = incoming[:2] if incoming else (None, None)
@@ -160,7 +163,7 @@ class RallyReferee(LeafSystem):
                                  False, True, r)
         elif floor:  # nothing left to judge (cannot happen: the floor decides)
             record = RallyRecord(record.exchanges, RallyFault(r, "out", t), False, True, r)
-        out.set_value(_State(record, cur, q, events, started, incoming))
+        out.set_value(_State(record, cur, q, events, started, incoming, outgoing))
         if record.over:
             return EventStatus.ReachedTermination(self, "the rally is over")
         return EventStatus.Succeeded()

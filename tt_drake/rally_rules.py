@@ -95,20 +95,25 @@ class RallyConfig:
 @dataclass(frozen=True)
 class Exchange:
     """One legal return: who returned, when it hit, where the ball landed (the returner's frame),
-    and the ball it had to return: its speed (m/s) and spin (rad/s, the returner's frame) at the
-    last sample before the hit."""
+    the ball it had to return: its speed (m/s) and spin (rad/s, the returner's frame) at the
+    last sample before the hit, and the ball it sent: ``outgoing`` (p, v, omega; 9 floats in the
+    returner's frame) at the referee's first sample after the hit (None if not recorded)."""
 
     player: int
     hit_time: float
     landing: tuple[float, float]
     incoming_speed: float
     incoming_spin: tuple[float, float, float]
+    outgoing: tuple[float, ...] | None = None
 
     def as_dict(self) -> dict:
-        return {"player": SIDES[self.player], "hit_time": round(self.hit_time, 4),
-                "landing": [round(c, 4) for c in self.landing],
-                "incoming_speed": round(self.incoming_speed, 4),
-                "incoming_spin": [round(c, 3) for c in self.incoming_spin]}
+        out = {"player": SIDES[self.player], "hit_time": round(self.hit_time, 4),
+               "landing": [round(c, 4) for c in self.landing],
+               "incoming_speed": round(self.incoming_speed, 4),
+               "incoming_spin": [round(c, 3) for c in self.incoming_spin]}
+        if self.outgoing is not None:
+            out["outgoing"] = [round(c, 4) for c in self.outgoing]
+        return out
 
 
 @dataclass(frozen=True)
