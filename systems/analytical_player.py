@@ -65,6 +65,7 @@ from tt_drake.racket_law import (
     racket_for_return,
     solve_outgoing_velocity,
 )
+from tt_drake.spin_stroke import spin_stroke_candidates
 from tt_drake.stages import (
     AWAITING,
     HITTING,
@@ -134,6 +135,9 @@ class PlannerConfig:
     # (the blade is 76 mm in radius, the ball 20 mm): docs/analytical_player.md, "Fallbacks".
     stroke_spins: tuple[float, ...] = (1.0, 0.5, 0.0)
     blade_offsets: tuple[float, ...] = (0.0, 0.03, 0.06)
+    # The return's topspin (rad/s; negative: backspin) a brushed stroke makes
+    # (tt_drake.spin_stroke); None: the flat stroke, the ball keeping the spin it came with.
+    topspin: float | None = None
 
 
 #: How much larger than the table the planner's model takes it (m): the launcher serves only onto
@@ -292,8 +296,7 @@ class StrokePlanner:
         is none. The first pair is the plain stroke (s = 1, the ball on the centre)."""
         for share in spins:
             compensated = share * spin
-            aims = [(v_out, flight_time, racket_for_return(v_hit, v_out, compensated))
-                    for v_out, flight_time in self.aims(p_hit, v_hit, compensated, previous)]
+            aims = self._strokes(p_hit, v_hit, compensated, previous)
             for offset in offsets:
                 for v_out, flight_time, racket in aims:
                     ik = self.arm.solve(blade_centre(p_hit, racket.normal, contact_offset,
@@ -304,6 +307,20 @@ class StrokePlanner:
                     if np.all(np.abs(qd_hit) <= self.limits.velocity):
                         return share, offset, v_out, flight_time, racket, ik, qd_hit
         return None
+
+    def _strokes(self, p_hit, v_hit, spin, previous: Stroke | None) -> list:
+        """(v_out, flight time, racket) to try, best first, for a ball spinning at ``spin``:
+        the flat stroke's aims (:meth:`aims`) and :func:`racket_for_return`, or with
+        ``config.topspin`` the brushed strokes of :func:`spin_stroke_candidates` (a correction
+        keeps the previous stroke's flight time)."""
+        cfg = self.config
+        if cfg.topspin is None:
+            return [(v_out, flight_time, racket_for_return(v_hit, v_out, spin))
+                    for v_out, flight_time in self.aims(p_hit, v_hit, spin, previous)]
+        times = (previous.flight_time,) if previous is not None else cfg.flight_times
+        return [(s.v_out, s.flight_time, s.racket)
+                for s in spin_stroke_candidates(p_hit, v_hit, spin, (cfg.target_x, cfg.target_y),
+                                                cfg.topspin, flight_times=times)]
 
     def needs_replan(self, previous: Stroke | None, p_hit, t_hit, spin=None) -> bool:
         """Whether a prediction moved from the one ``previous`` was planned on by more than
