@@ -33,6 +33,7 @@ import sys
 from collections.abc import Callable
 
 from tt_drake.constants import MAX_EXCHANGES
+from tt_drake.rally_aim import AIMS
 
 EXIT_BAD_INPUT = 2
 
@@ -245,6 +246,10 @@ def build_parser() -> argparse.ArgumentParser:
     rally.add_argument("--start", choices=("serve", "rally"), default="serve",
                        help="the first ball, to robot A: a launcher serve of the scenario's "
                             "distribution, or a real rally ball (rallies.json)")
+    rally.add_argument("--aim", choices=AIMS, default=None,
+                       help="each stroke's aim: cooperative (one target, flat strokes) or "
+                            "competitive (target, pace and spin drawn per stroke; "
+                            "docs/rally.md); default: the scenario's rally.aim")
     rally.add_argument("--max-exchanges", type=_positive_int, default=None,
                        help=f"stop a rally after this many exchanges, at most {MAX_EXCHANGES} "
                             "(default: the scenario's, 50)")
@@ -489,6 +494,8 @@ def _rally(args) -> None:
     # The other robot's returns spin: the learned players' racket follows the spinning contact
     # point unless told not to (docs/rally.md, "Spin-aware learned players").
     scenario.learned.spin_aware = not args.spinless_configuration
+    if args.aim is not None:
+        scenario.rally.aim = args.aim
     _use_rally_artefacts(players, scenario)
     for player in players:
         _check_learned(player, scenario)

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import math
 import sys
 import time
@@ -32,7 +33,9 @@ from tt_drake.camera_model import MAX_CAMERA_FRAMES
 from tt_drake.diagrams.episodes import PLAYERS, PlayerError, check_run, episode_seed
 from tt_drake.diagrams.recording import RecordingScene
 from tt_drake.diagrams.scenario import Scenario, validate
+from tt_drake.rally_aim import draw_aim
 from tt_drake.rally_rules import SIDES, Exchange, RallyFault, mirror_matrix13
+from tt_drake.rally_stats import outgoing_figures
 
 STARTS = ("serve", "rally")
 
@@ -131,6 +134,12 @@ def build_player_side(player: str, scenario: Scenario, side: int):
                 planner.config, target_x=scenario.rally.target_x,
                 target_y=scenario.rally.target_y,
                 flight_times=tuple(float(t) for t in scenario.rally.flight_times))
+    # The competitive aim draws each stroke's aim (tt_drake.rally_aim) in the analytical
+    # player, from the rally's seed: the player joins the seeded systems, after the others.
+    if scenario.rally.aim == "competitive" and sub.HasSubsystemNamed("analytical_player"):
+        teacher = sub.GetSubsystemByName("analytical_player")
+        teacher.aims = functools.partial(draw_aim, copy.deepcopy(scenario.rally.competitive))
+        seeded = [*seeded, teacher]
     diagram = sub.Build()
     diagram.set_name(f"player_{SIDES[side]}")
     return diagram, seeded, system
@@ -302,7 +311,9 @@ def summarize_rallies(results: list[RallyResult]) -> dict:
     reached the cap, the faults by kind, and per player: its exchange success rate (legal
     returns over the balls it had to return, the rally's first ball from the launcher
     included) and the same over the balls the other robot sent, and the percentiles of the
-    incoming ball's speed (m/s) and spin |omega| (rad/s) at its strokes and faults."""
+    incoming ball's speed (m/s) and spin |omega| (rad/s) at its strokes and faults, and the
+    figures of the balls it sent (``outgoing``: :func:`tt_drake.rally_stats.outgoing_figures`,
+    speed at the net, topspin share, landing spread)."""
     lengths = [r.length for r in results]
     faults: dict[str, int] = {}
     for r in results:
@@ -333,7 +344,9 @@ def summarize_rallies(results: list[RallyResult]) -> dict:
             "robot_balls": robot_attempts,
             "success_rate_on_robot_balls": (len(returns) - firsts) / robot_attempts
             if robot_attempts else None,
-            "incoming_speed": _percentiles(speeds), "incoming_spin": _percentiles(spins)}
+            "incoming_speed": _percentiles(speeds), "incoming_spin": _percentiles(spins),
+            "outgoing": outgoing_figures([e.outgoing for e in returns
+                                          if e.outgoing is not None])}
     summary["players"] = players
     return summary
 
@@ -400,6 +413,12 @@ def format_rally_summary(data: dict) -> str:
     for side, p in s["players"].items():
         rate = "n/a" if p["success_rate"] is None else f"{p['success_rate']:.1%}"
         line += f"; {side} returned {p['returns']}/{p['balls']} ({rate})"
+        out = p.get("outgoing")
+        if out is not None:
+            net = out["speed_at_net"]
+            line += (f" [its returns: speed at the net {net['p10']:.1f}/{net['p50']:.1f}/"
+                     f"{net['p90']:.1f} m/s, topspin {out['topspin_share']:.0%}, landing std "
+                     f"{out['landing_std'][0]:.2f}/{out['landing_std'][1]:.2f} m]")
     return line
 
 

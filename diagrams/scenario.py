@@ -18,6 +18,7 @@ from pydrake.common.yaml import yaml_dump_typed, yaml_load_data, yaml_load_typed
 
 from tt_drake.camera_model import CameraConfig
 from tt_drake.constants import MAX_EXCHANGES
+from tt_drake.rally_aim import AIMS
 from tt_drake.rally_rules import RallyConfig
 from tt_drake.referee_rules import RefereeConfig
 from tt_drake.systems.aerodynamics import AerodynamicsConfig
@@ -300,6 +301,7 @@ FIELD_RULES: dict[str, Check] = {
                                      else "needs one or more numbers > 0"),
     "rally.max_exchanges": number(minimum=1, maximum=MAX_EXCHANGES),
     "rally.exchange_timeout": number(above=0.0, maximum=60.0),
+    "rally.aim": one_of(*AIMS),
     "controller.kp": each(7, number(minimum=0.0, above=0.0)),
     "controller.ki": each(7, number(minimum=0.0)),
     "controller.kd": each(7, number(minimum=0.0, above=0.0)),
@@ -347,6 +349,7 @@ def validate(scenario: Scenario, origin: object = "scenario") -> None:
                 if scenario.world.with_robot or not p.startswith("world.models.robot ")]
     # The configs that also live outside scenarios check themselves (their cross-field ranges).
     problems += scenario.camera.problems()
+    problems += scenario.rally.competitive.problems()
     problems += scenario.launcher.problems()
     if problems:
         raise ScenarioError(f"invalid scenario {origin}: " + "; ".join(problems))

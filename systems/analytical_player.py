@@ -41,12 +41,17 @@ the estimate); outputs ``desired_state`` (14: q, q_dot) and
 The output ports evaluate the stored plan (a quintic per joint): O(1) work per integrator step.
 """
 
+from __future__ import annotations
+
+import copy
 import dataclasses
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector
 
 from tt_drake import wam_params as wp
 from tt_drake.ball_model import BallModel, BallModelParams, CompliantBounceBallModel
@@ -65,6 +70,7 @@ from tt_drake.racket_law import (
     racket_for_return,
     solve_outgoing_velocity,
 )
+from tt_drake.rally_aim import Aim
 from tt_drake.spin_stroke import spin_stroke_candidates
 from tt_drake.stages import (
     AWAITING,
@@ -198,6 +204,16 @@ class StrokePlanner:
                                   np.asarray(wp.JOINT_UPPER, dtype=float),
                                   np.asarray(wp.VELOCITY_LIMIT, dtype=float),
                                   self.acceleration_limit)
+
+    def aimed(self, aim: Aim) -> StrokePlanner:
+        """This planner with ``aim``'s target, flight time (if any) and topspin: a shallow copy
+        sharing the arm, the ball model and the limits (:mod:`tt_drake.rally_aim`)."""
+        planner = copy.copy(self)
+        times = self.config.flight_times if aim.flight_time is None else (aim.flight_time,)
+        planner.config = dataclasses.replace(self.config, target_x=aim.target_x,
+                                             target_y=aim.target_y, flight_times=times,
+                                             topspin=aim.topspin)
+        return planner
 
     def awaiting_plan(self, t: float = 0.0) -> StagePlan:
         zero = np.zeros(7)
@@ -398,14 +414,16 @@ class StrokePlanner:
 
 class _PlayerState(Immutable):
     """``seen``: the time of the estimate last acted on (the player waits for a newer one);
-    ``bounces``: the incoming ball's bounces on the robot's half seen so far."""
+    ``bounces``: the incoming ball's bounces on the robot's half seen so far; ``strokes``: the
+    balls played so far in the episode (a rally's per-stroke aim is drawn by this index)."""
 
-    __slots__ = ("plan", "stroke", "committed", "seen", "bounces")
+    __slots__ = ("plan", "stroke", "committed", "seen", "bounces", "strokes")
 
     def __init__(self, plan: StagePlan, stroke: Stroke | None = None, committed: bool = False,
-                 seen: float = -math.inf, bounces: BounceCount | None = None):
+                 seen: float = -math.inf, bounces: BounceCount | None = None,
+                 strokes: int = 0):
         self.plan, self.stroke, self.committed = plan, stroke, committed
-        self.seen, self.bounces = seen, bounces or BounceCount()
+        self.seen, self.bounces, self.strokes = seen, bounces or BounceCount(), strokes
 
 
 class AnalyticalPlayer(StagePlanPlayer):
@@ -417,7 +435,12 @@ class AnalyticalPlayer(StagePlanPlayer):
     ``play_again`` (the rally, docs/rally.md): after the planned hit, once the estimator reports
     the ball flying away (v_y > 0), the player is free again: it keeps the rest of its plan (the
     follow-through and the return to the awaiting posture) and waits for the next ball coming to
-    it. Without it (``serve``) the player stays committed to its one stroke."""
+    it. Without it (``serve``) the player stays committed to its one stroke.
+
+    ``aims`` (the rally's competitive aim): a function of (the episode's seed, the stroke's
+    index) giving each stroke's :class:`tt_drake.rally_aim.Aim`; the seed is a numeric
+    parameter (:meth:`set_seed`). A stroke the aimed planner cannot make falls back to the
+    planner's own aim. None: every stroke plays the planner's aim."""
 
     # Predictions past the committed stroke's correction cut-off can change nothing, so none is
     # made; docs/examples/lever_toggle.py turns them back on to measure what they cost.
@@ -425,11 +448,15 @@ class AnalyticalPlayer(StagePlanPlayer):
 
     def __init__(self, planner: StrokePlanner | None = None, rate: float = wp.PLANNING_RATE,
                  setpoint_lead: float = 0.0, corrections: bool = True, play_again: bool = False,
-                 setpoint_period: float | None = None):
+                 setpoint_period: float | None = None,
+                 aims: Callable[[int, int], Aim] | None = None):
         super().__init__(setpoint_lead, setpoint_period)
         self.planner = planner or StrokePlanner()
         self.corrections = corrections
         self.play_again = play_again
+        self.aims = aims
+        self._aimed: dict[tuple[int, int], StrokePlanner] = {}
+        self._seed_index = self.DeclareNumericParameter(BasicVector([0.0]))
         self._estimate = self.DeclareVectorInputPort("estimated_state", 6)
         self._spin = self.DeclareVectorInputPort("estimated_spin", 3)
         self._status = self.DeclareVectorInputPort("estimator_status", 2)
@@ -442,13 +469,33 @@ class AnalyticalPlayer(StagePlanPlayer):
     def player_state(self, context) -> _PlayerState:
         return context.get_abstract_state(self._state_index).get_value()
 
+    def set_seed(self, context, seed: int) -> None:
+        """The episode's seed, from which the per-stroke aims are drawn (class docstring)."""
+        context.get_mutable_numeric_parameter(self._seed_index).SetAtIndex(0, float(seed))
+
+    def _stroke(self, context, old: _PlayerState, p_hit, v_hit, t_hit, spin):
+        """The planner's stroke for the prediction, aimed for stroke ``old.strokes`` when the
+        player has ``aims`` (falling back to the planner's own aim)."""
+        if self.aims is not None:
+            seed = int(context.get_numeric_parameter(self._seed_index).GetAtIndex(0))
+            key = (seed, old.strokes)
+            if key not in self._aimed:
+                if len(self._aimed) > 256:  # derived planners, cheap to make again
+                    self._aimed.clear()
+                self._aimed[key] = self.planner.aimed(self.aims(seed, old.strokes))
+            stroke = self._aimed[key].stroke(p_hit, v_hit, t_hit, spin, old.stroke)
+            if stroke is not None:
+                return stroke
+        return self.planner.stroke(p_hit, v_hit, t_hit, spin, old.stroke)
+
     def _update(self, context, state):
         old = self.player_state(context)
         now = context.get_time()
         if old.committed:
             if self.play_again and self._ball_gone(context, old, now):
                 state.get_mutable_abstract_state(self._state_index).set_value(
-                    _PlayerState(remaining(old.plan, now), None, False, old.seen, old.bounces))
+                    _PlayerState(remaining(old.plan, now), None, False, old.seen, old.bounces,
+                                 old.strokes + 1))
                 return
             if self.corrections:
                 self._correct(context, state, old, now)
@@ -456,7 +503,8 @@ class AnalyticalPlayer(StagePlanPlayer):
         plan = old.plan
         hit_segment = next((seg for stage, seg in plan.segments if stage == HITTING), None)
         if hit_segment is not None and now >= hit_segment.t0:
-            new = _PlayerState(plan, old.stroke, committed=True, bounces=old.bounces)
+            new = _PlayerState(plan, old.stroke, committed=True, bounces=old.bounces,
+                               strokes=old.strokes)
             state.get_mutable_abstract_state(self._state_index).set_value(new)
             return
         fresh = self._fresh_prediction(context, state, old, old.committed)
@@ -471,12 +519,13 @@ class AnalyticalPlayer(StagePlanPlayer):
         if hit_segment is None and not moved:
             stroke = old.stroke  # waiting: same stroke, but decide again whether to start
         else:
-            stroke = self.planner.stroke(p_hit, v_hit, t_hit, spin, old.stroke)
+            stroke = self._stroke(context, old, p_hit, v_hit, t_hit, spin)
         if stroke is None:
             return
         new_plan = self.planner.plan(now, plan, stroke)
         state.get_mutable_abstract_state(self._state_index).set_value(
-            _PlayerState(plan if new_plan is None else new_plan, stroke, False, seen, bounces))
+            _PlayerState(plan if new_plan is None else new_plan, stroke, False, seen, bounces,
+                         old.strokes))
 
     def _ball_gone(self, context, old: _PlayerState, now: float) -> bool:
         """After the planned hit, the estimator tracks a ball flying away from the robot."""
@@ -497,13 +546,13 @@ class AnalyticalPlayer(StagePlanPlayer):
             return None
         if not predict:
             state.get_mutable_abstract_state(self._state_index).set_value(
-                _PlayerState(old.plan, old.stroke, committed, seen, old.bounces))
+                _PlayerState(old.plan, old.stroke, committed, seen, old.bounces, old.strokes))
             return None
         estimate = self._estimate.Eval(context)
         spin = self._spin.Eval(context) if self._spin.HasValue(context) else None
         bounces = self.planner.count_bounces(old.bounces, estimate, seen, spin)
         state.get_mutable_abstract_state(self._state_index).set_value(
-            _PlayerState(old.plan, old.stroke, committed, seen, bounces))
+            _PlayerState(old.plan, old.stroke, committed, seen, bounces, old.strokes))
         prediction = self.planner.predict(estimate, seen, spin, bounces.count)
         return None if prediction is None else (seen, bounces, prediction)
 
@@ -524,10 +573,10 @@ class AnalyticalPlayer(StagePlanPlayer):
         if (not before_cutoff or t_hit - now < cfg.correct_lead
                 or not self.planner.needs_correction(old.stroke, p_hit, t_hit, spin)):
             return
-        stroke = self.planner.stroke(p_hit, v_hit, t_hit, spin, old.stroke)
+        stroke = self._stroke(context, old, p_hit, v_hit, t_hit, spin)
         if stroke is None:
             return
         plan = self.planner.correct(now, old.plan, stroke)
         if plan is not None:
             state.get_mutable_abstract_state(self._state_index).set_value(
-                _PlayerState(plan, stroke, True, seen, bounces))
+                _PlayerState(plan, stroke, True, seen, bounces, old.strokes))

@@ -27,6 +27,7 @@ or when ``max_exchanges`` exchanges have been played (``capped``).
 
 from dataclasses import dataclass, field
 
+from tt_drake.rally_aim import CompetitiveAim
 from tt_drake.referee_rules import (
     FLOOR_CONTACT,
     RACKET_CONTACT,
@@ -83,13 +84,17 @@ class RallyConfig:
     the least racket speed: a slow, high ball that, returned by a robot with its spin, stops
     dead at the bounce and drops before the opponent's hitting plane). ``max_exchanges``: the
     rally stops there (counted as that many). ``exchange_timeout`` (s): see the module
-    docstring."""
+    docstring. ``aim`` and ``competitive``: each stroke's aim (:mod:`tt_drake.rally_aim`)."""
 
     target_x: float = -0.3
     target_y: float = 0.9
     flight_times: list[float] = field(default_factory=_rally_flight_times)
     max_exchanges: int = 50
     exchange_timeout: float = 3.0
+    # Each stroke's aim (tt_drake.rally_aim): ``cooperative`` (the target above, flat strokes)
+    # or ``competitive`` (drawn per stroke from ``competitive``).
+    aim: str = "cooperative"
+    competitive: CompetitiveAim = field(default_factory=CompetitiveAim)
 
 
 @dataclass(frozen=True)

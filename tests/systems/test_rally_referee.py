@@ -173,3 +173,20 @@ def test_a_ball_that_goes_by_is_missed_by_the_receiver():
     assert record.exchanges == ()
     assert (record.fault.player, record.fault.kind) == (0, "missed")
     assert record.fault.incoming_speed is not None  # taken where it crossed A's hitting plane
+
+
+def test_each_exchange_records_the_ball_its_stroke_sent_in_the_strikers_frame():
+    s = a_returns(Script(SERVE[:3], SERVE[3:]))
+    sent_a = s.v.copy()
+    s.fly_until(crossing(1)).aim((0.3, -0.9))
+    sent_b = s.v.copy()
+    s.fly_until(crossing(0)).aim((-0.2, 0.8))
+    s.fly(3.0)
+    record = run(s, RallyConfig(max_exchanges=3))
+    # The referee's first sample after the stroke: one step (4 ms) of flight from it.
+    for exchange, sent in zip(record.exchanges[:2], (sent_a, sent_b), strict=True):
+        out = np.asarray(exchange.outgoing)
+        v_side = np.asarray(to_side(exchange.player, *sent))
+        np.testing.assert_allclose(out[3:6], v_side, atol=0.05)  # g dt = 0.04 m/s
+        assert out[4] > 0.0  # toward the opponent, in the striker's frame
+    assert "outgoing" in record.exchanges[0].as_dict()

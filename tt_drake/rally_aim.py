@@ -1,0 +1,85 @@
+"""Where each stroke of a rally aims, with what pace and spin: the players' per-stroke decision.
+
+An :class:`Aim` is the landing target (x, y on the opponent's half, in the striker's own frame),
+the return's flight time (None: the player's candidate times, least racket speed first) and its
+topspin (rad/s, negative for backspin; None: the flat stroke, the ball keeping the spin it came
+with; :mod:`tt_drake.spin_stroke`).
+
+- ``cooperative``: every stroke aims at the rally's one target with the flat stroke, a ball the
+  opponent can play.
+- ``competitive``: each stroke draws its aim (:class:`CompetitiveAim`): the target uniform over
+  a box of the opponent's half, the flight time uniform over a range (pace: 0.45 s is a drive at
+  ~6 m/s, 0.8 s a slow ball), and the stroke's kind, a topspin drive, a backspin push or a flat
+  block, with the given probabilities. Stroke k of a rally with seed s draws from its own
+  generator, keyed by (s, k), so a rally replays exactly and its strokes are independent.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+AIMS = ("cooperative", "competitive")
+STROKE_KINDS = ("drive", "push", "block")
+
+
+def _pair(low: float, high: float):
+    return field(default_factory=lambda: [low, high])
+
+
+@dataclass
+class CompetitiveAim:
+    """The competitive aim's draws (scenario field ``rally.competitive``): target ``x`` and
+    ``y`` ranges (m, the striker's frame: y > 0 is the opponent's half, the end line at 1.37 m),
+    ``flight_time`` range (s), the probabilities of a drive, a push and a block (``kinds``), a
+    drive's topspin range (rad/s) and a push's backspin (rad/s, negative)."""
+
+    x: list[float] = _pair(-0.55, 0.55)
+    y: list[float] = _pair(0.55, 1.25)
+    flight_time: list[float] = _pair(0.42, 0.85)
+    kinds: list[float] = field(default_factory=lambda: [0.7, 0.15, 0.15])
+    drive_topspin: list[float] = _pair(30.0, 90.0)
+    push_topspin: float = -30.0
+
+    def problems(self, prefix: str = "rally.competitive.") -> list[str]:
+        """What is wrong with the values, one phrase per field."""
+        out = []
+        for name in ("x", "y", "flight_time", "drive_topspin"):
+            pair = getattr(self, name)
+            if (len(pair) != 2 or not all(np.isfinite(pair)) or pair[0] > pair[1]):
+                out.append(f"{prefix}{name} must be [low, high] with low <= high, got {pair}")
+        if len(self.y) == 2 and not 0.0 < self.y[0]:
+            out.append(f"{prefix}y must lie on the opponent's half (> 0), got {self.y}")
+        if len(self.flight_time) == 2 and not 0.0 < self.flight_time[0]:
+            out.append(f"{prefix}flight_time must be > 0, got {self.flight_time}")
+        kinds = np.asarray(self.kinds, dtype=float)
+        if kinds.shape != (3,) or np.any(kinds < 0.0) or abs(kinds.sum() - 1.0) > 1e-9:
+            out.append(f"{prefix}kinds must be 3 probabilities (drive, push, block) summing to "
+                       f"1, got {self.kinds}")
+        if not np.isfinite(self.push_topspin):
+            out.append(f"{prefix}push_topspin must be finite, got {self.push_topspin}")
+        return out
+
+
+@dataclass(frozen=True)
+class Aim:
+    """One stroke's aim (module docstring); ``kind`` names the stroke for the record."""
+
+    target_x: float
+    target_y: float
+    flight_time: float | None = None
+    topspin: float | None = None
+    kind: str = "block"
+
+
+def draw_aim(competitive: CompetitiveAim, seed: int, stroke: int) -> Aim:
+    """Stroke ``stroke`` of the rally with ``seed``: the competitive aim's draw (module
+    docstring), a pure function of (seed, stroke)."""
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed) & 0xFFFFFFFFFFFF,
+                                                        int(stroke), 0xA1]))
+    x = float(rng.uniform(*competitive.x))
+    y = float(rng.uniform(*competitive.y))
+    flight_time = float(rng.uniform(*competitive.flight_time))
+    kind = STROKE_KINDS[int(rng.choice(3, p=np.asarray(competitive.kinds, dtype=float)))]
+    drive = float(rng.uniform(*competitive.drive_topspin))  # drawn for every kind alike
+    topspin = {"drive": drive, "push": float(competitive.push_topspin), "block": None}[kind]
+    return Aim(x, y, flight_time, topspin, kind)
