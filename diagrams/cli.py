@@ -20,7 +20,8 @@
                        [--protocol paper|hard|hard-stiff] [--sizes full|quick|artefacts]
                        [--until STAGE]
     tt-drake rally --players A B --rallies N --seed S [--start serve|rally] [--max-exchanges 50]
-                   [--html out.html] [--json out.json] [--workers W]   (docs/rally.md)
+                   [--aim cooperative|competitive] [--html out.html] [--json out.json]
+                   [--workers W]   (docs/rally.md)
     tt-drake --version
 
 Bad input (an unknown or malformed scenario field, a missing model or data file, an unknown

@@ -9,8 +9,8 @@ with; :mod:`tt_drake.spin_stroke`).
   opponent can play.
 - ``competitive``: each stroke draws its aim (:class:`CompetitiveAim`): the target uniform over
   a box of the opponent's half, the flight time uniform over a range (pace: 0.45 s is a drive at
-  ~6 m/s, 0.8 s a slow ball), and the stroke's kind, a topspin drive, a backspin push or a flat
-  block, with the given probabilities. Stroke k of a rally with seed s draws from its own
+  ~6 m/s, 0.8 s a slow ball), and the stroke's kind, a topspin drive, a backspin push or a block
+  that takes the spin off the ball, with the given probabilities. Stroke k of a rally with seed s draws from its own
   generator, keyed by (s, k), so a rally replays exactly and its strokes are independent.
 """
 
@@ -31,14 +31,15 @@ class CompetitiveAim:
     """The competitive aim's draws (scenario field ``rally.competitive``): target ``x`` and
     ``y`` ranges (m, the striker's frame: y > 0 is the opponent's half, the end line at 1.37 m),
     ``flight_time`` range (s), the probabilities of a drive, a push and a block (``kinds``), a
-    drive's topspin range (rad/s) and a push's backspin (rad/s, negative)."""
+    drive's topspin range (rad/s), a push's (negative: backspin) and a block's."""
 
     x: list[float] = _pair(-0.55, 0.55)
     y: list[float] = _pair(0.55, 1.25)
     flight_time: list[float] = _pair(0.42, 0.85)
     kinds: list[float] = field(default_factory=lambda: [0.7, 0.15, 0.15])
-    drive_topspin: list[float] = _pair(30.0, 90.0)
+    drive_topspin: list[float] = _pair(20.0, 70.0)
     push_topspin: float = -30.0
+    block_topspin: float = 0.0
 
     def problems(self, prefix: str = "rally.competitive.") -> list[str]:
         """What is wrong with the values, one phrase per field."""
@@ -55,8 +56,9 @@ class CompetitiveAim:
         if kinds.shape != (3,) or np.any(kinds < 0.0) or abs(kinds.sum() - 1.0) > 1e-9:
             out.append(f"{prefix}kinds must be 3 probabilities (drive, push, block) summing to "
                        f"1, got {self.kinds}")
-        if not np.isfinite(self.push_topspin):
-            out.append(f"{prefix}push_topspin must be finite, got {self.push_topspin}")
+        for name in ("push_topspin", "block_topspin"):
+            if not np.isfinite(getattr(self, name)):
+                out.append(f"{prefix}{name} must be finite, got {getattr(self, name)}")
         return out
 
 
@@ -81,5 +83,6 @@ def draw_aim(competitive: CompetitiveAim, seed: int, stroke: int) -> Aim:
     flight_time = float(rng.uniform(*competitive.flight_time))
     kind = STROKE_KINDS[int(rng.choice(3, p=np.asarray(competitive.kinds, dtype=float)))]
     drive = float(rng.uniform(*competitive.drive_topspin))  # drawn for every kind alike
-    topspin = {"drive": drive, "push": float(competitive.push_topspin), "block": None}[kind]
+    topspin = {"drive": drive, "push": float(competitive.push_topspin),
+               "block": float(competitive.block_topspin)}[kind]
     return Aim(x, y, flight_time, topspin, kind)

@@ -28,7 +28,7 @@ def test_the_draws_cover_their_ranges_with_the_kinds_probabilities():
     drives = [a.topspin for a in aims if a.kind == "drive"]
     assert c.drive_topspin[0] <= min(drives) and max(drives) <= c.drive_topspin[1]
     assert {a.topspin for a in aims if a.kind == "push"} == {c.push_topspin}
-    assert {a.topspin for a in aims if a.kind == "block"} == {None}
+    assert {a.topspin for a in aims if a.kind == "block"} == {c.block_topspin}
 
 
 def test_bad_ranges_and_probabilities_are_named():
