@@ -1,20 +1,28 @@
 """A ball-only world (table, net, floor, ball, aerodynamics) that replays launches fast: built
 once, each run restores the initial context. Used to generate labelled ball flights and by the
-physics tests."""
+physics tests; by default at the simulation recipe's accuracy throughout (no flight
+accuracy)."""
 
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import VectorLogSink
 
 from tt_drake.systems.aerodynamics import AerodynamicsConfig, add_aerodynamics
-from tt_drake.systems.world import WorldConfig, add_world, make_simulator, set_ball_state
+from tt_drake.systems.world import (
+    RECIPE_FLIGHT_ACCURACY,
+    WorldConfig,
+    add_world,
+    make_simulator,
+    set_ball_state,
+)
 
 
 class BallOnlyWorld:
     def __init__(self, log_period: float = 5e-4, aerodynamics: bool = True,
                  config: WorldConfig | None = None):
         builder = DiagramBuilder()
-        self.config = config or WorldConfig(with_robot=False)
+        self.config = config or WorldConfig(with_robot=False,
+                                             flight_accuracy=RECIPE_FLIGHT_ACCURACY)
         self.world = add_world(builder, self.config)
         plant = self.world.plant
         add_aerodynamics(builder, self.world, AerodynamicsConfig(enabled=aerodynamics))

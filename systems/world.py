@@ -3,9 +3,10 @@
 Simulation recipe (docs/design.md): a continuous plant (``time_step = 0``), point
 contact with Hunt-Crossley dissipation, stiction tolerance 1e-2 m/s, integrated by error-controlled
 RK3 with accuracy 1e-4 and a maximum step of 2 ms. These are the defaults of
-:class:`WorldConfig`; scenario YAML files may override them. With ``flight_accuracy`` (the default
-scenario: 1e-3) the accuracy is relaxed to it while nothing can touch the ball
-(:class:`ContactAccuracy`); every contact keeps the recipe's.
+:class:`WorldConfig`; scenario YAML files may override them. With ``flight_accuracy`` (default
+1e-3, as in the default scenario; 0 keeps the recipe's accuracy throughout) the accuracy is relaxed
+to it while nothing can touch the ball (:class:`ContactAccuracy`); every contact keeps the
+recipe's.
 """
 
 
@@ -50,12 +51,16 @@ class WorldConfig:
     models: ModelFiles = field(default_factory=ModelFiles)
     with_robot: bool = True
     # > 0: the integrator's accuracy while nothing can touch the ball (ContactAccuracy); the
-    # simulator's own accuracy applies near every contact. 0: the simulator's accuracy always.
-    flight_accuracy: float = 0.0
+    # simulator's own accuracy applies near every contact. 0: the simulator's accuracy always
+    # (the recipe: RECIPE_FLIGHT_ACCURACY).
+    flight_accuracy: float = 1e-3
     # A second WAM at the other end of the table (the rally, docs/rally.md): the first one's
     # model and mount turned a half-turn about the vertical axis through the table centre.
     with_second_robot: bool = False
 
+
+#: ``WorldConfig.flight_accuracy`` of the simulation recipe itself: one accuracy throughout.
+RECIPE_FLIGHT_ACCURACY = 0.0
 
 SECOND_ROBOT_PREFIX = "b"  # the second robot's model instance is ``b::<the robot's model>``
 
