@@ -290,11 +290,10 @@ def _time_parallel(scenario: Scenario, player: str, seeds: list[int], workers: i
       hypervisor."""
     import os
 
-    from tt_drake.diagrams.episodes import LEARNED_PLAYERS, load_learned_player
     from tt_drake.diagrams.parallel import run_episodes
+    from tt_drake.diagrams.players import check_player
 
-    if player in LEARNED_PLAYERS:
-        load_learned_player(scenario, primitives=player == "momp", keep=True)
+    check_player(player, scenario)  # a learned player's artefacts, kept for the workers
     jiffies0 = _machine_jiffies()
     t0 = time.perf_counter()
     first = None

@@ -8,10 +8,8 @@ the ball at the launch state and simulates until the referee ends the episode (t
 floor) or, at the latest, the predicted crossing of the hitting plane plus
 ``Scenario.after_crossing``.
 
-Players are registered in :data:`PLAYERS`: a function that adds the player's systems to the
-builder, connects them to the controller's desired-state and desired-acceleration inputs, and
-returns the systems that draw random numbers (each has ``set_seed(context, seed)``; the episode
-gives each its own seed derived from the episode's).
+The players are registered in :mod:`tt_drake.diagrams.players` (the protocol of a player
+function is there); the built-in players' functions are here.
 """
 
 import time
@@ -24,6 +22,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, VectorLogSink
 
 from tt_drake.arm_metrics import arm_metrics
+from tt_drake.diagrams.players import PlayerError, player_function  # noqa: F401 (re-exported)
 from tt_drake.diagrams.scenario import Scenario, validate
 from tt_drake.referee_rules import Outcome
 from tt_drake.seeds import episode_seed  # noqa: F401  (re-exported: runners import it here)
@@ -49,11 +48,8 @@ SETPOINT_LEAD = 0.5 * SERVO_PERIOD
 NO_CROSSING_DURATION = 3.0
 
 
-class PlayerError(ValueError):
-    """An unknown player name or a player that cannot be built."""
 
-
-def _idle_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario) -> list:
+def add_idle_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario) -> list:
     """Hold the awaiting posture: constant desired state (q_await, 0) and zero acceleration."""
     from tt_drake.wam_params import AWAITING
 
@@ -270,17 +266,28 @@ def add_learned_player(builder: DiagramBuilder, world: World, controller, scenar
     return seeded
 
 
-def _momp_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario) -> list:
+def add_momp_player(builder: DiagramBuilder, world: World, controller,
+                    scenario: Scenario) -> list:
+    """The ``momp`` player: :func:`add_learned_player` with the motor primitives."""
     return add_learned_player(builder, world, controller, scenario, primitives=True)
 
 
-def _crkr_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario) -> list:
+def add_crkr_player(builder: DiagramBuilder, world: World, controller,
+                    scenario: Scenario) -> list:
+    """The ``crkr`` player: :func:`add_learned_player` with the teacher's quintic stages."""
     return add_learned_player(builder, world, controller, scenario, primitives=False)
 
 
-PLAYERS: dict[str, Callable] = {"idle": _idle_player, "analytical": add_analytical_player,
-                                "momp": _momp_player, "crkr": _crkr_player}
-LEARNED_PLAYERS = ("momp", "crkr")
+def check_momp_artefacts(scenario: Scenario) -> None:
+    """Load and check the ``momp`` player's artefacts, kept for the diagram built next
+    (:func:`load_learned_player` with ``keep``)."""
+    load_learned_player(scenario, primitives=True, keep=True)
+
+
+def check_crkr_artefacts(scenario: Scenario) -> None:
+    """Load and check the ``crkr`` player's artefacts (no primitive library), kept for the
+    diagram built next."""
+    load_learned_player(scenario, primitives=False, keep=True)
 
 
 @dataclass
@@ -332,18 +339,27 @@ def stroke_summary(stroke) -> dict | None:
             **({"spinless": True} if stroke.spinless else {})}
 
 
+def player_system(builder: DiagramBuilder):
+    """The player's system among ``builder``'s: the one with a ``stroke`` output (None if no
+    system has one)."""
+    found = None
+    for system in builder.GetSystems():
+        if system.HasOutputPort("stroke"):
+            found = system
+    return found
+
+
 class ServeDiagram:
     """The serve diagram of one scenario and player, built once and reused for every episode."""
 
     def __init__(self, scenario: Scenario, player: str | Callable = "idle",
                  log_ball: bool = False, record: bool = False,
                  end_when_decided: bool | None = None, log_setpoints: bool = False):
-        """``player``: a name in :data:`PLAYERS`, or a function with their signature (tools:
-        ``tt-drake bench`` replays set-points with one). ``log_setpoints``: log the servo holds'
-        outputs (the set-points the controller got) at every tick, for :meth:`setpoints`."""
-        if isinstance(player, str) and player not in PLAYERS:
-            raise PlayerError(f"unknown player {player!r}; choose one of {', '.join(PLAYERS)}")
-        add_player = PLAYERS[player] if isinstance(player, str) else player
+        """``player``: a registered name (:mod:`tt_drake.diagrams.players`), or a player
+        function (tools: ``tt-drake bench`` replays set-points with one). ``log_setpoints``: log
+        the servo holds' outputs (the set-points the controller got) at every tick, for
+        :meth:`setpoints`."""
+        add_player = player_function(player)
         validate(scenario)  # nothing invalid reaches Drake, whoever built the scenario
         self.scenario = scenario
         # The referee ends an episode once the return's outcome is decided, except when the
@@ -393,10 +409,7 @@ class ServeDiagram:
             builder.Connect(builder.GetSubsystemByName(SERVO_HOLD).get_output_port(),
                             log.get_input_port())
             self.setpoint_logs.append(log)
-        self.player = None
-        for name in ("analytical_player", "momp_player"):
-            if builder.HasSubsystemNamed(name):
-                self.player = builder.GetSubsystemByName(name)
+        self.player = player_system(builder)
         # When the learned player's hitting stage began, was the prediction out the GPR's final
         # one or an early physical-model one? Logged at the referee's rate (no new event time).
         self.final_logger = None

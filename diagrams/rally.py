@@ -2,8 +2,8 @@
 
 The rally diagram is the serve diagram's world with a second WAM at the other end of the table,
 mirrored through the net (``WorldConfig.with_second_robot``, :mod:`tt_drake.rally_rules`), each
-robot with its own controller and its own player: camera, estimator and player (any of
-:data:`tt_drake.diagrams.episodes.PLAYERS`), built by the same player functions as ``serve``'s,
+robot with its own controller and its own player: camera, estimator and player (any registered
+in :mod:`tt_drake.diagrams.players`), built by the same player functions as ``serve``'s,
 each inside its own sub-diagram (``player_A``, ``player_B``) whose input ``ball_state`` is the
 ball seen from that robot's frame (B's through a C++ ``MatrixGain``, the mirror M = Rz(pi)) and
 whose outputs ``desired_state``, ``desired_acceleration`` drive that robot's controller. So both
@@ -29,7 +29,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tt_drake.camera_model import MAX_CAMERA_FRAMES
-from tt_drake.diagrams.episodes import PLAYERS, PlayerError, check_run, episode_seed
+from tt_drake.diagrams.episodes import PlayerError, check_run, episode_seed
+from tt_drake.diagrams.players import ControllerPorts, player_function
 from tt_drake.diagrams.recording import RecordingScene
 from tt_drake.diagrams.scenario import Scenario, validate
 from tt_drake.rally_rules import SIDES, Exchange, RallyFault, mirror_matrix13
@@ -79,29 +80,20 @@ class _PortWorld:
         self.plant = self._Plant({self.ball: ball_port, self.robot: arm_port})
 
 
-class _PortController:
-    """What a player function reads from the controller: its two desired-value input ports."""
-
-    def __init__(self, state_port, acceleration_port):
-        self._state, self._acceleration = state_port, acceleration_port
-
-    def get_input_port_desired_state(self):  # noqa: D102
-        return self._state
-
-    def get_input_port_desired_acceleration(self):  # noqa: D102
-        return self._acceleration
-
-
-def build_player_side(player: str, scenario: Scenario, side: int):
-    """The sub-diagram of one side's player: inputs ``ball_state`` (13, the side's frame) and
-    ``arm_state`` (14: its arm's measured q, q_dot, which the learned player's hold reads),
-    outputs ``desired_state`` (14) and ``desired_acceleration`` (7). Returns (diagram, the
-    systems that draw random numbers, the player system)."""
+def build_player_side(player, scenario: Scenario, side: int):
+    """The sub-diagram of one side's player (a registered name or a player function): inputs
+    ``ball_state`` (13, the side's frame) and ``arm_state`` (14: its arm's measured q, q_dot,
+    which the learned player's hold reads), outputs ``desired_state`` (14) and
+    ``desired_acceleration`` (7). Every system with a ``play_again`` attribute plays again after
+    each stroke, and every planner (a ``planner`` attribute whose config has a target) aims at
+    the rally's target. Returns (diagram, the systems that draw random numbers, the player
+    system: the one with a ``stroke`` output, or None)."""
     from pydrake.systems.framework import DiagramBuilder
     from pydrake.systems.primitives import PassThrough
 
-    if player not in PLAYERS:
-        raise PlayerError(f"unknown player {player!r}; choose one of {', '.join(PLAYERS)}")
+    from tt_drake.diagrams.episodes import player_system
+
+    add_player = player_function(player)
     sub = DiagramBuilder()
     ball = sub.AddNamedSystem("ball_state", PassThrough(13))
     sub.ExportInput(ball.get_input_port(), "ball_state")
@@ -109,24 +101,20 @@ def build_player_side(player: str, scenario: Scenario, side: int):
     sub.ExportInput(arm.get_input_port(), "arm_state")
     desired = sub.AddNamedSystem("desired_state", PassThrough(14))
     accel = sub.AddNamedSystem("desired_acceleration", PassThrough(7))
-    seeded = PLAYERS[player](sub, _PortWorld(ball.get_output_port(), arm.get_output_port()),
-                             _PortController(desired.get_input_port(), accel.get_input_port()),
+    seeded = add_player(sub, _PortWorld(ball.get_output_port(), arm.get_output_port()),
+                             ControllerPorts(desired.get_input_port(), accel.get_input_port()),
                              scenario)
     sub.ExportOutput(desired.get_output_port(), "desired_state")
     sub.ExportOutput(accel.get_output_port(), "desired_acceleration")
-    system = None
-    for name in ("analytical_player", "momp_player", "hitting_point_predictor"):
-        if sub.HasSubsystemNamed(name):
-            found = sub.GetSubsystemByName(name)
+    system = player_system(sub)
+    for found in sub.GetSystems():
+        if hasattr(found, "play_again"):
             found.play_again = True  # read at their updates
-            if name != "hitting_point_predictor":
-                system = found
     # The rally's aim replaces the single stroke's in every planner the player has (the
     # analytical player's; the learned player's with ``configuration: analytical``).
-    for name in ("analytical_player", "hitting_configuration"):
-        planner = (getattr(sub.GetSubsystemByName(name), "planner", None)
-                   if sub.HasSubsystemNamed(name) else None)
-        if planner is not None:
+    for found in sub.GetSystems():
+        planner = getattr(found, "planner", None)
+        if planner is not None and hasattr(getattr(planner, "config", None), "target_x"):
             planner.config = dataclasses.replace(
                 planner.config, target_x=scenario.rally.target_x,
                 target_y=scenario.rally.target_y,
