@@ -7,11 +7,12 @@ import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import VectorLogSink
 
-from tt_drake.systems.aerodynamics import AerodynamicsConfig, add_aerodynamics
+from tt_drake.diagrams.scenario import Scenario
+from tt_drake.diagrams.station import build_station, robots_of
+from tt_drake.systems.aerodynamics import AerodynamicsConfig
 from tt_drake.systems.world import (
     RECIPE_FLIGHT_ACCURACY,
     WorldConfig,
-    add_world,
     make_simulator,
     set_ball_state,
 )
@@ -23,13 +24,17 @@ class BallOnlyWorld:
         builder = DiagramBuilder()
         self.config = config or WorldConfig(with_robot=False,
                                              flight_accuracy=RECIPE_FLIGHT_ACCURACY)
-        self.world = add_world(builder, self.config)
-        plant = self.world.plant
-        add_aerodynamics(builder, self.world, AerodynamicsConfig(enabled=aerodynamics))
+        scenario = Scenario(world=self.config,
+                            aerodynamics=AerodynamicsConfig(enabled=aerodynamics))
+        station = build_station(scenario, robots_of(self.config), launcher=False,
+                                referee=False, controllers=False)
+        self.world = station.world
+        builder.AddSystem(station.diagram)
         self.logger = builder.AddNamedSystem("ball_logger", VectorLogSink(13, log_period))
-        builder.Connect(plant.get_state_output_port(self.world.ball), self.logger.get_input_port())
+        builder.Connect(station.diagram.GetOutputPort("ball_state"),
+                        self.logger.get_input_port())
         self.diagram = builder.Build()
-        self.simulator = make_simulator(self.diagram, self.config)
+        self.simulator = make_simulator(self.diagram, self.config, self.world.plant)
         self.context = self.simulator.get_mutable_context()
         self._initial = self.context.Clone()
 

@@ -17,26 +17,27 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from pydrake.systems.analysis import ApplySimulatorConfig
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, VectorLogSink
 
 from tt_drake.arm_metrics import arm_metrics
-from tt_drake.diagrams.players import PlayerError, player_function  # noqa: F401 (re-exported)
+from tt_drake.diagrams.players import (  # noqa: F401 (PlayerError: re-exported)
+    PlayerError,
+    WorldPorts,
+    player_function,
+)
 from tt_drake.diagrams.scenario import Scenario, validate
+from tt_drake.diagrams.station import (
+    arm_port,
+    awaiting_posture,
+    build_station,
+    reset_episode,
+    station_ports,
+)
 from tt_drake.referee_rules import Outcome
 from tt_drake.seeds import episode_seed  # noqa: F401  (re-exported: runners import it here)
-from tt_drake.systems.aerodynamics import add_aerodynamics
-from tt_drake.systems.ball_launcher import BallLauncher
-from tt_drake.systems.referee import Referee
 from tt_drake.systems.wam import SERVO_HOLD, add_servo_hold, hold_first_setpoint
-from tt_drake.systems.world import (
-    World,
-    add_world,
-    advance_in_segments,
-    set_ball_state,
-    simulator_and_schedule,
-)
+from tt_drake.systems.world import World, advance_in_segments, simulator_and_schedule
 from tt_drake.wam_params import SERVO_PERIOD
 
 # The players' set-points are held for a servo tick; they evaluate their plans half a tick ahead.
@@ -368,40 +369,26 @@ class ServeDiagram:
         # result is taken (:meth:`extend`): recording is observation only.
         self.end_when_decided = not record if end_when_decided is None else end_when_decided
         builder = DiagramBuilder()
-        world = add_world(builder, scenario.world)
-        self.world = world
-        plant = world.plant
-        self.launcher = builder.AddNamedSystem("ball_launcher", BallLauncher(scenario.launcher))
-        add_aerodynamics(builder, world, scenario.aerodynamics)
-        self.referee = builder.AddNamedSystem("referee", self._make_referee())
-        builder.Connect(plant.get_state_output_port(world.ball), self.referee.get_input_port(0))
-        if world.robot is not None:
-            builder.Connect(plant.get_state_output_port(world.robot),
-                            self.referee.GetInputPort("robot_state"))
-        builder.Connect(plant.get_contact_results_output_port(), self.referee.get_input_port(2))
-        self.controller = None
+        parts = build_station(scenario, robots=int(scenario.world.with_robot),
+                              end_when_decided=self.end_when_decided)
+        station = self.station = builder.AddSystem(parts.diagram)
+        self.world, self.launcher, self.referee = parts.world, parts.launcher, parts.referee
+        self.controller = self.arm_logger = self.torque_logger = None
         self.seeded = [self.launcher]
         period = 1.0 / scenario.referee_rate
-        if world.robot is not None:
-            from tt_drake.systems.wam import add_joint_faults, add_wam_controller
-
-            c = scenario.controller
-            self.controller = add_wam_controller(builder, plant, world.robot, c.kp, c.ki, c.kd,
-                                                 mass_scale=c.mass_scale,
-                                                 inertia_scale=c.inertia_scale)
+        # What the player and the loggers read: the station's ports.
+        world = WorldPorts(station.GetOutputPort("ball_state"))
+        if self.world.robot is not None:
+            world, self.controller = station_ports(station)
             self.seeded += add_player(builder, world, self.controller, scenario)
-            noise = add_joint_faults(builder, plant, world.robot, self.controller,
-                                     c.joint_coulomb, c.joint_viscous, c.coulomb_velocity,
-                                     c.torque_noise)
-            if noise is not None:
-                self.seeded.append(noise)
+            self.seeded += parts.seeded  # the arm's torque noise
             # Arm state and commanded torques at the referee's rate (aligned events: no extra
             # integrator stops), for joint-limit and saturation metrics.
             self.arm_logger = builder.AddNamedSystem("arm_logger", VectorLogSink(14, period))
-            builder.Connect(plant.get_state_output_port(world.robot),
+            builder.Connect(station.GetOutputPort(arm_port(0, "state")),
                             self.arm_logger.get_input_port())
             self.torque_logger = builder.AddNamedSystem("torque_logger", VectorLogSink(7, period))
-            builder.Connect(self.controller.GetOutputPort("actuation"),
+            builder.Connect(station.GetOutputPort(arm_port(0, "torque")),
                             self.torque_logger.get_input_port())
         self.setpoint_logs = []
         if log_setpoints and builder.HasSubsystemNamed(SERVO_HOLD):
@@ -429,7 +416,7 @@ class ServeDiagram:
             # Every recording logger samples at the referee's rate: no event time the unrecorded
             # diagram lacks, so the error-controlled integrator takes the same steps.
             self.ball_logger = builder.AddNamedSystem("ball_logger", VectorLogSink(13, period))
-            builder.Connect(plant.get_state_output_port(world.ball),
+            builder.Connect(station.GetOutputPort("ball_state"),
                             self.ball_logger.get_input_port())
             # What the robot believes: the estimated path and the predicted hitting point.
             if builder.HasSubsystemNamed("ball_flight_estimator"):
@@ -452,38 +439,19 @@ class ServeDiagram:
         # The episodes decide the integrator's accuracy once per referee tick (advance_in_segments)
         # rather than through the simulator's monitor after every step; the monitor (the same
         # schedule) stays attached for whoever steps this simulator directly.
-        self.simulator, self._schedule = simulator_and_schedule(self.diagram, scenario.world)
+        self.simulator, self._schedule = simulator_and_schedule(self.diagram, scenario.world,
+                                                                self.world.plant)
         self._segment = period
         self.context = self.simulator.get_mutable_context()
         self._set_awaiting_posture()
         self._initial = self.context.Clone()
-
-    def _make_referee(self) -> Referee:
-        world, plant = self.world, self.world.plant
-        kwargs = {}
-        if world.robot is not None:
-            from tt_drake.systems.referee import RacketCentre
-            from tt_drake.systems.wam import RACKET_CENTER_FRAME
-
-            frame = plant.GetFrameByName(RACKET_CENTER_FRAME, world.robot)
-            robot_bodies = [plant.get_body(i).index() for i in plant.GetBodyIndices(world.robot)]
-            inspector = world.scene_graph.model_inspector()
-            table_ids = [g for g in plant.GetCollisionGeometriesForBody(plant.world_body())
-                         if inspector.GetName(g).endswith("table_top")]
-            kwargs = dict(racket_centre=RacketCentre(plant, world.robot, frame),
-                          robot_body_indices=robot_bodies, table_geometry_ids=table_ids)
-        return Referee(self.scenario.referee, self.scenario.referee_rate,
-                       stop_when_decided=self.end_when_decided, **kwargs)
 
     def _set_awaiting_posture(self) -> None:
         """The arm at the awaiting posture, and the servo holds (if any) holding the player's
         first set-point, so that nothing sees their default zeros before the first tick."""
         if self.world.robot is None:
             return
-        from tt_drake.wam_params import AWAITING
-
-        plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
-        self.world.plant.SetPositions(plant_context, self.world.robot, np.asarray(AWAITING))
+        awaiting_posture(self.world, self.context)
         hold_first_setpoint(self.diagram, self.context)
 
     @property
@@ -504,16 +472,8 @@ class ServeDiagram:
         self._set_library_array("weights", weights, lambda w: np.all(np.isfinite(w)),
                                 "primitive weights",
                                 lambda w0: f"primitive weights must be {w0.shape} finite values")
-        self.context.SetTimeStateAndParametersFrom(self._initial)
-        # A fresh integrator: its step-size history would make an episode depend on the ones
-        # before it (a landing point moved 7e-7 m) and on a recording's extension of them.
-        ApplySimulatorConfig(self.scenario.world.simulator, self.simulator)
-        for k, system in enumerate(self.seeded):  # the launcher gets the episode seed itself
-            system.set_seed(system.GetMyMutableContextFromRoot(self.context),
-                            seed if k == 0 else episode_seed(seed, k))
-        serve = self.launcher.serve(self.launcher.GetMyContextFromRoot(self.context))
-        plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
-        set_ball_state(self.world, plant_context, serve.launch_state)
+        serve = reset_episode(self.simulator, self._initial, self.scenario.world.simulator,
+                              self.seeded, self.world, seed)
         for logger in self._loggers():
             logger.FindMutableLog(self.context).Clear()
         if self.recorder is not None:

@@ -98,7 +98,6 @@ import math
 import gymnasium as gym
 import numpy as np
 from pydrake.gym import DrakeGymEnv
-from pydrake.systems.analysis import ApplySimulatorConfig
 
 from tt_drake.diagrams.episodes import (
     SETPOINT_LEAD,
@@ -106,11 +105,11 @@ from tt_drake.diagrams.episodes import (
     ServeDiagram,
     add_analytical_player,
     add_perception,
-    episode_seed,
 )
 from tt_drake.diagrams.gym_render import EpisodePages, FrameRenderer
 from tt_drake.diagrams.players import ControllerPorts, check_player, player_function
 from tt_drake.diagrams.scenario import Scenario, load_scenario, validate
+from tt_drake.diagrams.station import reset_episode
 from tt_drake.referee_rules import Outcome
 from tt_drake.systems.gym_players import (
     AbsoluteStrokePlayer,
@@ -121,7 +120,6 @@ from tt_drake.systems.gym_players import (
 )
 from tt_drake.systems.referee import RacketCentre
 from tt_drake.systems.wam import RACKET_CENTER_FRAME, add_servo_hold
-from tt_drake.systems.world import set_ball_state
 from tt_drake.wam_params import SERVO_PERIOD, SERVO_RATE
 
 OBSERVATION_FIELDS = ("p_hit_x", "p_hit_y", "p_hit_z", "v_hit_x", "v_hit_y", "v_hit_z",
@@ -196,14 +194,6 @@ def _serve_seed(env: gym.Env, options: dict | None) -> int:
     if options and options.get("serve_seed") is not None:
         return int(options["serve_seed"])
     return int(env.np_random.integers(0, 2**32))
-
-
-def _fresh_integrator(diagram: ServeDiagram) -> None:
-    """A fresh integrator, as ``ServeDiagram.run`` makes one: an error-controlled integrator
-    would otherwise start each episode with the step size the previous one ended with, and the
-    same serve would replay only to ~1e-8 m (measured: a landing 3e-8 m apart), not bit for
-    bit."""
-    ApplySimulatorConfig(diagram.scenario.world.simulator, diagram.simulator)
 
 
 def _outcome_info(outcome: Outcome, serve_seed: int) -> dict:
@@ -494,18 +484,14 @@ class ReturnBallStepEnv(_ServeEnv, DrakeGymEnv):
         return np.asarray(observation, dtype=np.float32), {"serve_seed": self._serve_seed}
 
     def _start_serve(self, simulator, context, seed) -> None:
-        """The serve episode's start, as ``ServeDiagram.run`` makes it: the saved initial
-        context, the seeds (the launcher gets the serve's, the others derived ones), the ball at
-        its launch state, the loggers cleared."""
+        """The serve episode's start, as ``ServeDiagram.run`` makes it
+        (:func:`tt_drake.diagrams.station.reset_episode`), the loggers cleared."""
         diagram = self.serve_diagram
         serve_seed = self._serve_seed = _serve_seed(self, self._options)
-        context.SetTimeStateAndParametersFrom(self._initial)
-        for k, system in enumerate(diagram.seeded):
-            system.set_seed(system.GetMyMutableContextFromRoot(context),
-                            serve_seed if k == 0 else episode_seed(serve_seed, k))
-        serve = diagram.launcher.serve(diagram.launcher.GetMyContextFromRoot(context))
-        set_ball_state(diagram.world, diagram.world.plant.GetMyMutableContextFromRoot(context),
-                       serve.launch_state)
+        # The episode reset of every runner (a fresh integrator included: an error-controlled
+        # integrator would otherwise start with the step size the previous episode ended with).
+        serve = reset_episode(diagram.simulator, self._initial, self.scenario.world.simulator,
+                              diagram.seeded, diagram.world, serve_seed)
         self._t_end = float(serve.crossing.t + self.scenario.after_crossing)
         for logger in (diagram.arm_logger, diagram.ball_logger):
             if logger is not None:
@@ -513,7 +499,6 @@ class ReturnBallStepEnv(_ServeEnv, DrakeGymEnv):
         crossing = np.r_[serve.crossing.position, serve.crossing.velocity, serve.crossing.t]
         self._start = EpisodeResult(serve_seed, list(serve.launch_state), list(crossing), 0.0,
                                     None, 0.0)
-        _fresh_integrator(diagram)
         simulator.Initialize()
 
     def step(self, action):

@@ -47,6 +47,33 @@ class RegisteredPlayer:
 _REGISTRY: dict[str, RegisteredPlayer] = {}
 
 
+class WorldPorts:
+    """What a player function reads from the world, as ports: ``world.plant``'s state output
+    port of ``world.ball`` (the ball's state, 13, in the player's robot's frame) and of
+    ``world.robot`` (its arm's measured state, 14), and its arm's accelerations
+    (``get_generalized_acceleration_output_port(world.robot)``, 7)."""
+
+    class Plant:
+        """The ``MultibodyPlant`` methods a player function calls, on the given ports."""
+
+        def __init__(self, states: dict, accelerations: dict):
+            self.states, self.accelerations = states, accelerations
+
+        def get_state_output_port(self, instance):  # noqa: D102 (MultibodyPlant's name)
+            return self.states[instance]
+
+        def get_generalized_acceleration_output_port(self, instance):  # noqa: D102
+            return self.accelerations[instance]
+
+    def __init__(self, ball_port, arm_port=None, acceleration_port=None):
+        self.ball = "ball"
+        self.robot = None if arm_port is None else "robot"
+        states = {self.ball: ball_port}
+        if arm_port is not None:
+            states[self.robot] = arm_port
+        self.plant = self.Plant(states, {self.robot: acceleration_port})
+
+
 class ControllerPorts:
     """What a player function reads from the controller, when its desired values go elsewhere
     first (a rally side's sub-diagram, the step environment's offset): the two input ports it

@@ -33,7 +33,7 @@ from tt_drake.diagrams.episodes import PlayerError, check_run, episode_seed
 from tt_drake.diagrams.players import ControllerPorts, player_function
 from tt_drake.diagrams.recording import RecordingScene
 from tt_drake.diagrams.scenario import Scenario, validate
-from tt_drake.rally_rules import SIDES, Exchange, RallyFault, mirror_matrix13
+from tt_drake.rally_rules import SIDES, Exchange, RallyFault
 
 STARTS = ("serve", "rally")
 
@@ -161,14 +161,10 @@ class RallyDiagram:
                                                                       "analytical"),
                  log: bool = False):
         from pydrake.systems.framework import DiagramBuilder
-        from pydrake.systems.primitives import MatrixGain, VectorLogSink
+        from pydrake.systems.primitives import VectorLogSink
 
-        from tt_drake.systems.aerodynamics import add_aerodynamics
-        from tt_drake.systems.ball_launcher import BallLauncher
-        from tt_drake.systems.rally_referee import RallyReferee
-        from tt_drake.systems.referee import RacketCentre
-        from tt_drake.systems.wam import RACKET_CENTER_FRAME, add_wam_controller
-        from tt_drake.systems.world import add_world, make_simulator
+        from tt_drake.diagrams.station import arm_port, build_station, station_ports
+        from tt_drake.systems.world import make_simulator
 
         validate(scenario)
         c = scenario.controller
@@ -179,33 +175,19 @@ class RallyDiagram:
             raise PlayerError("a rally scenario has two robots (use rally_scenario)")
         self.scenario, self.players = scenario, tuple(players)
         builder = DiagramBuilder()
-        world = add_world(builder, scenario.world)
-        self.world = world
-        plant = world.plant
-        self.launcher = builder.AddNamedSystem("ball_launcher", BallLauncher(scenario.launcher))
-        add_aerodynamics(builder, world, scenario.aerodynamics)
-        robots = (world.robot, world.robot_b)
-        centres = tuple(RacketCentre(plant, r, plant.GetFrameByName(RACKET_CENTER_FRAME, r))
-                        for r in robots)
-        self.referee = builder.AddNamedSystem("rally_referee", RallyReferee(
-            scenario.rally, scenario.referee, scenario.referee_rate, centres))
-        ball = plant.get_state_output_port(world.ball)
-        builder.Connect(ball, self.referee.GetInputPort("ball_state"))
-        mirror = builder.AddNamedSystem("mirror_B", MatrixGain(mirror_matrix13()))
-        builder.Connect(ball, mirror.get_input_port())
+        parts = build_station(scenario, robots=2)
+        station = self.station = builder.AddSystem(parts.diagram)
+        self.world, self.launcher, self.referee = parts.world, parts.launcher, parts.referee
         self.seeded = [self.launcher]
         self.sides, self.player_systems = [], []
-        for k, (name, robot) in enumerate(zip(self.players, robots, strict=True)):
-            builder.Connect(plant.get_state_output_port(robot),
-                            self.referee.GetInputPort(f"robot_{SIDES[k].lower()}_state"))
-            controller = add_wam_controller(builder, plant, robot, c.kp, c.ki, c.kd,
-                                            name=f"wam_controller_{SIDES[k]}",
-                                            mass_scale=c.mass_scale, inertia_scale=c.inertia_scale)
+        for k, name in enumerate(self.players):
+            world, controller = station_ports(station, k)
             side, seeded, system = build_player_side(name, scenario, k)
             builder.AddSystem(side)
-            builder.Connect(ball if k == 0 else mirror.get_output_port(),
+            builder.Connect(world.plant.get_state_output_port(world.ball),
                             side.GetInputPort("ball_state"))
-            builder.Connect(plant.get_state_output_port(robot), side.GetInputPort("arm_state"))
+            builder.Connect(world.plant.get_state_output_port(world.robot),
+                            side.GetInputPort("arm_state"))
             builder.Connect(side.GetOutputPort("desired_state"),
                             controller.get_input_port_desired_state())
             builder.Connect(side.GetOutputPort("desired_acceleration"),
@@ -216,48 +198,37 @@ class RallyDiagram:
         self.loggers = []
         if log:  # at the referee's rate: no event time the unlogged diagram lacks
             period = 1.0 / scenario.referee_rate
-            for name, port, size in (("ball", ball, 13),
-                                     ("arm_A", plant.get_state_output_port(robots[0]), 14),
-                                     ("arm_B", plant.get_state_output_port(robots[1]), 14)):
+            for name, port, size in (("ball", "ball_state", 13),
+                                     ("arm_A", arm_port(0, "state"), 14),
+                                     ("arm_B", arm_port(1, "state"), 14)):
                 logger = builder.AddNamedSystem(f"{name}_logger", VectorLogSink(size, period))
-                builder.Connect(port, logger.get_input_port())
+                builder.Connect(station.GetOutputPort(port), logger.get_input_port())
                 self.loggers.append(logger)
         self.diagram = builder.Build()
         self.diagram.set_name("rally_diagram")
-        self.simulator = make_simulator(self.diagram, scenario.world)
+        self.simulator = make_simulator(self.diagram, scenario.world, self.world.plant)
         self.context = self.simulator.get_mutable_context()
         self._set_awaiting_posture()
         self._initial = self.context.Clone()
 
     def _set_awaiting_posture(self) -> None:
+        from tt_drake.diagrams.station import awaiting_posture
         from tt_drake.systems.wam import hold_first_setpoint
-        from tt_drake.wam_params import AWAITING
 
-        plant = self.world.plant
-        plant_context = plant.GetMyMutableContextFromRoot(self.context)
-        for robot in (self.world.robot, self.world.robot_b):
-            plant.SetPositions(plant_context, robot, np.asarray(AWAITING))
+        awaiting_posture(self.world, self.context)
         for side in self.sides:
             hold_first_setpoint(side, self.context)
 
     def run(self, seed: int, gamma=None) -> RallyResult:
         """Simulate one rally from ``seed`` (``gamma``: accepted for the parallel runner's
         interface; must be None)."""
-        from pydrake.systems.analysis import ApplySimulatorConfig
-
-        from tt_drake.systems.world import set_ball_state
+        from tt_drake.diagrams.station import reset_episode
 
         if gamma is not None:
             raise PlayerError("responsibilities gamma are not used by the rally")
         wall = time.perf_counter()
-        self.context.SetTimeStateAndParametersFrom(self._initial)
-        ApplySimulatorConfig(self.scenario.world.simulator, self.simulator)
-        for k, system in enumerate(self.seeded):
-            system.set_seed(system.GetMyMutableContextFromRoot(self.context),
-                            seed if k == 0 else episode_seed(seed, k))
-        serve = self.launcher.serve(self.launcher.GetMyContextFromRoot(self.context))
-        set_ball_state(self.world, self.world.plant.GetMyMutableContextFromRoot(self.context),
-                       serve.launch_state)
+        serve = reset_episode(self.simulator, self._initial, self.scenario.world.simulator,
+                              self.seeded, self.world, seed)
         for logger in self.loggers:
             logger.FindMutableLog(self.context).Clear()
         self.simulator.Initialize()

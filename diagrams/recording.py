@@ -76,17 +76,15 @@ class RecordingScene:
     browser paused it)."""
 
     def __init__(self, world_config):
-        from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
-        from pydrake.systems.framework import DiagramBuilder
-
-        from tt_drake.systems.world import add_world
+        from tt_drake.diagrams.station import build_station, robots_of
 
         self.meshcat = make_meshcat()
-        builder = DiagramBuilder()
-        self.world = add_world(builder, world_config)
-        self.visualizer = MeshcatVisualizer.AddToBuilder(
-            builder, self.world.scene_graph, self.meshcat, MeshcatVisualizerParams())
-        self.diagram = builder.Build()
+        # Only the plant (and scene graph) of the station, drawn by the visualizer.
+        station = build_station(None, robots_of(world_config), self.meshcat, launcher=False,
+                                referee=False, aerodynamics=False, controllers=False,
+                                world_config=world_config)
+        self.world, self.visualizer, self.diagram = station.world, station.visualizer, \
+            station.diagram
         self.context = self.diagram.CreateDefaultContext()
         self.plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
         self.visualizer_context = self.visualizer.GetMyContextFromRoot(self.context)
