@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 from pydrake.systems.framework import BasicVector, LeafSystem
 
+from tt_drake.diagrams.cli import build_parser
 from tt_drake.diagrams.episodes import ServeDiagram
 from tt_drake.diagrams.gym_envs import ReturnBallStepEnv
 from tt_drake.diagrams.players import (
@@ -51,6 +52,8 @@ register_player("posture_holder", add_posture_holder)
 
 def test_the_registered_player_is_listed_and_an_unknown_name_is_refused():
     assert player_names()[-1] == "posture_holder"
+    args = build_parser().parse_args(["serve", "--player", "posture_holder"])
+    assert args.player == "posture_holder"  # the command offers it too
     assert player_function("posture_holder") is add_posture_holder
     with pytest.raises(PlayerError, match="unknown player 'nobody'; choose one of idle, "):
         player_function("nobody")
@@ -82,13 +85,13 @@ def test_the_registered_player_plays_a_gymnasium_step_episode_under_the_agents_o
     observation, info = env.reset(seed=0, options={"serve_seed": 5})
     assert info["serve_seed"] == 5
     np.testing.assert_allclose(observation[:7], AWAITING, atol=1e-6)  # the episode's start
-    push = np.r_[1.0, np.zeros(6)]  # the shoulder turned further, for 10 steps
+    push = np.r_[1.0, np.zeros(6)]  # the shoulder turned further, for 4 steps
     steps, done = 0, False
     while not done:
-        observation, reward, terminated, truncated, info = env.step(push if steps < 10
+        observation, reward, terminated, truncated, info = env.step(push if steps < 4
                                                                     else np.zeros(7))
         steps, done = steps + 1, terminated or truncated
     assert (info["outcome"]["outcome"], reward) == ("missed", 0.0)
-    offset = 10 * VELOCITY_LIMIT[0] / 100.0  # 10 increments of a full step at 100 Hz
-    expected = POSTURE + np.r_[min(offset, 0.5), np.zeros(6)]
+    offset = 4 * VELOCITY_LIMIT[0] / 100.0  # 4 increments of a full step at 100 Hz: 0.4 rad
+    expected = POSTURE + np.r_[offset, np.zeros(6)]
     np.testing.assert_allclose(observation[:7], expected, atol=2e-3)
