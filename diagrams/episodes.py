@@ -1,8 +1,9 @@
 """Build the serve diagram for a scenario and a player, and run serve episodes on it.
 
-The diagram (docs/design.md, "The serve diagram"): BallLauncher, MultibodyPlant (WAM + racket,
-table, net, floor, ball), Aerodynamics, the player's trajectory source feeding Drake's
-InverseDynamicsController, and the Referee. It is built once; each episode restores a saved context
+The diagram (docs/design.md, "The serve diagram"): the station of one robot
+(:mod:`tt_drake.diagrams.station`: BallLauncher, MultibodyPlant (WAM + racket, table, net, floor,
+ball), Aerodynamics, Drake's InverseDynamicsController and the Referee) with the player wired to
+its ports, and the episodes' loggers. It is built once; each episode restores a saved context
 (``SetTimeStateAndParametersFrom`` + ``Initialize``, docs/design.md), sets the launcher's seed, puts
 the ball at the launch state and simulates until the referee ends the episode (the ball reached the
 floor) or, at the latest, the predicted crossing of the hitting plane plus
@@ -25,6 +26,7 @@ from tt_drake.diagrams.players import (  # noqa: F401 (PlayerError: re-exported)
     PlayerError,
     WorldPorts,
     player_function,
+    player_system,
 )
 from tt_drake.diagrams.scenario import Scenario, validate
 from tt_drake.diagrams.station import (
@@ -338,16 +340,6 @@ def stroke_summary(stroke) -> dict | None:
             "replans": int(stroke.replans), "fallback": bool(stroke.fallback),
             **({"held": True} if stroke.held else {}),
             **({"spinless": True} if stroke.spinless else {})}
-
-
-def player_system(builder: DiagramBuilder):
-    """The player's system among ``builder``'s: the one with a ``stroke`` output (None if no
-    system has one)."""
-    found = None
-    for system in builder.GetSystems():
-        if system.HasOutputPort("stroke"):
-            found = system
-    return found
 
 
 class ServeDiagram:

@@ -128,6 +128,16 @@ def player_function(player: str | Callable) -> Callable:
     return resolve(registered_player(player).add)
 
 
+def player_system(builder):
+    """The player's system among ``builder``'s (a ``DiagramBuilder``): the one with a ``stroke``
+    output, the last added if several (None if no system has one)."""
+    found = None
+    for system in builder.GetSystems():
+        if system.HasOutputPort("stroke"):
+            found = system
+    return found
+
+
 def check_player(player: str | Callable, scenario) -> None:
     """Raise PlayerError (one line) if ``player`` cannot play ``scenario``: an unknown name, or
     its check's verdict; a plain player function is not checked."""

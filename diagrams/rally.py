@@ -30,7 +30,7 @@ import numpy as np
 
 from tt_drake.camera_model import MAX_CAMERA_FRAMES
 from tt_drake.diagrams.episodes import PlayerError, check_run, episode_seed
-from tt_drake.diagrams.players import ControllerPorts, player_function
+from tt_drake.diagrams.players import ControllerPorts, player_function, player_system
 from tt_drake.diagrams.recording import RecordingScene
 from tt_drake.diagrams.scenario import Scenario, validate
 from tt_drake.rally_rules import SIDES, Exchange, RallyFault
@@ -90,8 +90,6 @@ def build_player_side(player, scenario: Scenario, side: int):
     system: the one with a ``stroke`` output, or None)."""
     from pydrake.systems.framework import DiagramBuilder
     from pydrake.systems.primitives import PassThrough
-
-    from tt_drake.diagrams.episodes import player_system
 
     add_player = player_function(player)
     sub = DiagramBuilder()
