@@ -7,8 +7,9 @@ systems to ``builder``; it reads the ball's state from
 ``controller.get_input_port_desired_state()`` and ``get_input_port_desired_acceleration()``, and
 returns the systems that draw random numbers (each has ``set_seed(context, seed)``; the episode
 gives each its own seed derived from the episode's). The same function builds the player of a
-serve, of each side of a rally (whose ``world`` and ``controller`` are that side's ports, in
-that robot's frame) and of the Gymnasium step environment's ``player`` option.
+serve, of each side of a rally (in that robot's frame) and of the Gymnasium step environment's
+``player`` option; ``world`` and ``controller`` are then the station's ports
+(:class:`WorldPorts`, :class:`ControllerPorts`, :func:`tt_drake.diagrams.station.station_ports`).
 
 The runners find what they need by protocol, not by name: the player's system is the one with
 a ``stroke`` output (the serve episode summarises it); in a rally every system with a
