@@ -7,8 +7,10 @@ world (table, net, floor, ball, 0-2 WAMs), the ball launcher, the aerodynamics (
 the referee (one robot: :class:`tt_drake.systems.referee.Referee`; two:
 :class:`tt_drake.systems.rally_referee.RallyReferee`), and per robot its
 InverseDynamicsController with the scenario's joint faults; with ``meshcat``, a
-``MeshcatVisualizer``. Ports (``wam_A_*`` for the first robot, ``wam_B_*`` for the second, the
-rally's, mirrored through the net):
+``MeshcatVisualizer``; with ``camera``, a :class:`tt_drake.systems.ball_camera.BallCamera` of
+the scenario's camera (the players see the ball through cameras of their own:
+:func:`tt_drake.diagrams.episodes.add_perception`). Ports (``wam_A_*`` for the first robot,
+``wam_B_*`` for the second, the rally's, mirrored through the net):
 
 | port | direction | size | what |
 |---|---|---|---|
@@ -19,6 +21,7 @@ rally's, mirrored through the net):
 | ``wam_A_acceleration`` | out | 7 | the arm's joint accelerations |
 | ``ball_state`` | out | 13 | the ball: quaternion, p (m), omega (rad/s), v (m/s), world frame |
 | ``ball_state_B`` | out | 13 | two robots: the ball in robot B's frame (the mirror, Rz(pi)) |
+| ``camera_frames`` | out | 5 | with ``camera``: the last frame x, y, z (m), capture time, valid |
 | ``contact_results`` | out | abstract | the plant's contact results |
 | ``outcome`` | out | abstract | one robot: the referee's :class:`tt_drake.referee_rules.Outcome` |
 | ``reward`` | out | 1 | one robot: the outcome's reward |
@@ -84,7 +87,7 @@ class Station:
 
 def build_station(scenario, robots: int = 1, meshcat=None, end_when_decided: bool = True,
                   launcher: bool = True, referee: bool = True, aerodynamics: bool = True,
-                  controllers: bool = True, world_config=None) -> Station:
+                  controllers: bool = True, world_config=None, camera: bool = False) -> Station:
     """The station of ``scenario`` with ``robots`` WAMs (0, 1 or 2) and its parts' handles.
 
     ``end_when_decided``: the (one-robot) referee ends the simulation once the outcome is
@@ -92,7 +95,8 @@ def build_station(scenario, robots: int = 1, meshcat=None, end_when_decided: boo
     ball-only world has no launcher or referee, the recording scene only the plant; a station
     with only the plant may have ``scenario`` None). ``world_config``: the world's settings
     instead of ``scenario.world`` (with_robot and with_second_robot follow ``robots`` either
-    way)."""
+    way). ``camera``: a camera of ``scenario.camera`` on the ball, its frames exported as
+    ``camera_frames`` (the camera is in ``seeded``)."""
     import copy
 
     if robots not in (0, 1, 2):
@@ -135,6 +139,13 @@ def build_station(scenario, robots: int = 1, meshcat=None, end_when_decided: boo
         builder.Connect(ball, mirror.get_input_port())
         builder.ExportOutput(mirror.get_output_port(), "ball_state_B")
     station = Station(None, world, launcher_system, referee_system)
+    if camera:
+        from tt_drake.systems.ball_camera import BallCamera
+
+        station_camera = builder.AddNamedSystem("ball_camera", BallCamera(scenario.camera))
+        builder.Connect(ball, station_camera.get_input_port(0))
+        builder.ExportOutput(station_camera.GetOutputPort("measurement"), "camera_frames")
+        station.seeded.append(station_camera)
     for k, robot in enumerate(robot_instances):
         state = plant.get_state_output_port(robot)
         if referee and robots == 2:
@@ -159,12 +170,13 @@ def robots_of(config) -> int:
     return int(config.with_robot) + int(config.with_robot and config.with_second_robot)
 
 
-def make_station(scenario, robots: int = 1, meshcat=None) -> Diagram:
+def make_station(scenario, robots: int = 1, meshcat=None, camera: bool = False) -> Diagram:
     """The station Diagram of ``scenario`` with ``robots`` WAMs (1: the serve's, 2: the
-    rally's) and, with a ``meshcat`` (``pydrake.geometry.Meshcat``), its visualizer: the ports
-    of the module docstring's table. Its parts are reachable by name (``plant``,
-    ``ball_launcher``, ``referee`` or ``rally_referee``, ``wam_controller_A``)."""
-    return build_station(scenario, robots, meshcat).diagram
+    rally's), with a ``meshcat`` (``pydrake.geometry.Meshcat``) its visualizer, with ``camera``
+    a camera's frames: the ports of the module docstring's table. Its parts are reachable by
+    name (``plant``, ``ball_launcher``, ``referee`` or ``rally_referee``, ``wam_controller`` or
+    ``wam_controller_A`` and ``_B``, ``ball_camera``)."""
+    return build_station(scenario, robots, meshcat, camera=camera).diagram
 
 
 def _referee(scenario, world: World, end_when_decided: bool):

@@ -69,3 +69,19 @@ def test_robot_b_sees_the_ball_through_the_mirror():
     np.testing.assert_allclose(ball[4:7], launch[:3])  # p, in the world frame
     np.testing.assert_allclose(station.diagram.GetOutputPort("ball_state_B").Eval(context),
                                mirror_matrix13() @ ball, atol=1e-15)
+
+
+def test_the_station_camera_frames_a_resting_ball_where_it_lies():
+    scenario = load_scenario()
+    scenario.camera.sigma = 0.0  # a noiseless camera sees the true position
+    station = build_station(scenario, robots=0, end_when_decided=False, camera=True)
+    assert "camera_frames" not in _ports(make_station(scenario))[1]  # off by default
+    simulator = Simulator(station.diagram)
+    context = simulator.get_mutable_context()
+    rest = [0.3, 1.0, TABLE.surface_z + BALL.radius]
+    set_ball_state(station.world, station.world.plant.GetMyMutableContextFromRoot(context),
+                   [*rest, 0, 0, 0, 0, 0, 0])
+    simulator.AdvanceTo(0.1)  # frames at 0, 1/60, ..., 5/60 s
+    frame = station.diagram.GetOutputPort("camera_frames").Eval(context)
+    np.testing.assert_allclose(frame[:3], rest, atol=1e-6)  # the ball settles on the table
+    assert frame[3] == pytest.approx(5 / 60, abs=1e-12) and frame[4] == 1.0
