@@ -8,7 +8,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import VectorLogSink
 
 from tt_drake.diagrams.scenario import Scenario
-from tt_drake.diagrams.station import build_station, robots_of
+from tt_drake.diagrams.station import add_station, robots_of
 from tt_drake.systems.aerodynamics import AerodynamicsConfig
 from tt_drake.systems.world import (
     RECIPE_FLIGHT_ACCURACY,
@@ -26,13 +26,11 @@ class BallOnlyWorld:
                                              flight_accuracy=RECIPE_FLIGHT_ACCURACY)
         scenario = Scenario(world=self.config,
                             aerodynamics=AerodynamicsConfig(enabled=aerodynamics))
-        station = build_station(scenario, robots_of(self.config), launcher=False,
-                                referee=False, controllers=False)
+        station = add_station(builder, scenario, robots_of(self.config), launcher=False,
+                              referee=False, controllers=False)
         self.world = station.world
-        builder.AddSystem(station.diagram)
         self.logger = builder.AddNamedSystem("ball_logger", VectorLogSink(13, log_period))
-        builder.Connect(station.diagram.GetOutputPort("ball_state"),
-                        self.logger.get_input_port())
+        builder.Connect(station.GetOutputPort("ball_state"), self.logger.get_input_port())
         self.diagram = builder.Build()
         self.simulator = make_simulator(self.diagram, self.config, self.world.plant)
         self.context = self.simulator.get_mutable_context()

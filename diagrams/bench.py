@@ -38,7 +38,7 @@ from pydrake.trajectories import PiecewisePolynomial
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.players import ControllerPorts
 from tt_drake.diagrams.scenario import ControllerConfig, Scenario
-from tt_drake.diagrams.station import arm_port, build_station
+from tt_drake.diagrams.station import add_station, arm_port
 from tt_drake.serves import ServeSampler
 from tt_drake.systems.world import RECIPE_FLIGHT_ACCURACY, make_simulator, set_ball_state
 
@@ -73,14 +73,12 @@ class ReferenceDiagram:
         reference = copy.copy(scenario)
         c = scenario.controller
         reference.controller = ControllerConfig(kp=list(c.kp), ki=list(c.ki), kd=list(c.kd))
-        station = build_station(reference, robots=1, launcher=False, referee=False,
-                                aerodynamics=False, world_config=world_config)
-        self.world = station.world
         builder = DiagramBuilder()
-        builder.AddSystem(station.diagram)
-        controller = ControllerPorts(station.diagram.GetInputPort(arm_port(0, "desired_state")),
-                                     station.diagram.GetInputPort(
-                                         arm_port(0, "desired_acceleration")))
+        station = add_station(builder, reference, robots=1, launcher=False, referee=False,
+                              aerodynamics=False, world_config=world_config)
+        self.world = station.world
+        controller = ControllerPorts(station.GetInputPort(arm_port(0, "desired_state")),
+                                     station.GetInputPort(arm_port(0, "desired_acceleration")))
         traj = _swing(duration)
         source = builder.AddNamedSystem("swing", TrajectorySource(traj, 1))
         builder.Connect(source.get_output_port(), controller.get_input_port_desired_state())

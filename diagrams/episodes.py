@@ -30,9 +30,9 @@ from tt_drake.diagrams.players import (  # noqa: F401 (PlayerError: re-exported)
 )
 from tt_drake.diagrams.scenario import Scenario, validate
 from tt_drake.diagrams.station import (
+    add_station,
     arm_port,
     awaiting_posture,
-    build_station,
     reset_episode,
     station_ports,
 )
@@ -361,9 +361,9 @@ class ServeDiagram:
         # result is taken (:meth:`extend`): recording is observation only.
         self.end_when_decided = not record if end_when_decided is None else end_when_decided
         builder = DiagramBuilder()
-        parts = build_station(scenario, robots=int(scenario.world.with_robot),
-                              end_when_decided=self.end_when_decided)
-        station = self.station = builder.AddSystem(parts.diagram)
+        parts = station = self.station = add_station(
+            builder, scenario, robots=int(scenario.world.with_robot),
+            end_when_decided=self.end_when_decided)
         self.world, self.launcher, self.referee = parts.world, parts.launcher, parts.referee
         self.controller = self.arm_logger = self.torque_logger = None
         self.seeded = [self.launcher]

@@ -99,6 +99,12 @@ def register_player(name: str, add: Callable | str, check: Callable | str | None
     _REGISTRY[name] = RegisteredPlayer(name, add, check, learned)
 
 
+def unregister_player(name: str) -> None:
+    """Remove the player ``name`` from the registry (PlayerError if it is not registered)."""
+    registered_player(name)
+    del _REGISTRY[name]
+
+
 def player_names() -> tuple[str, ...]:
     """The registered players' names, in the order they were registered."""
     return tuple(_REGISTRY)

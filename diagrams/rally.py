@@ -161,7 +161,7 @@ class RallyDiagram:
         from pydrake.systems.framework import DiagramBuilder
         from pydrake.systems.primitives import VectorLogSink
 
-        from tt_drake.diagrams.station import arm_port, build_station, station_ports
+        from tt_drake.diagrams.station import add_station, arm_port, station_ports
         from tt_drake.systems.world import make_simulator
 
         validate(scenario)
@@ -173,8 +173,7 @@ class RallyDiagram:
             raise PlayerError("a rally scenario has two robots (use rally_scenario)")
         self.scenario, self.players = scenario, tuple(players)
         builder = DiagramBuilder()
-        parts = build_station(scenario, robots=2)
-        station = self.station = builder.AddSystem(parts.diagram)
+        parts = station = self.station = add_station(builder, scenario, robots=2)
         self.world, self.launcher, self.referee = parts.world, parts.launcher, parts.referee
         self.seeded = [self.launcher]
         self.sides, self.player_systems = [], []

@@ -76,15 +76,18 @@ class RecordingScene:
     browser paused it)."""
 
     def __init__(self, world_config):
-        from tt_drake.diagrams.station import build_station, robots_of
+        from pydrake.systems.framework import DiagramBuilder
+
+        from tt_drake.diagrams.station import add_station, robots_of
 
         self.meshcat = make_meshcat()
         # Only the plant (and scene graph) of the station, drawn by the visualizer.
-        station = build_station(None, robots_of(world_config), self.meshcat, launcher=False,
-                                referee=False, aerodynamics=False, controllers=False,
-                                world_config=world_config)
-        self.world, self.visualizer, self.diagram = station.world, station.visualizer, \
-            station.diagram
+        builder = DiagramBuilder()
+        station = add_station(builder, None, robots_of(world_config), self.meshcat,
+                              launcher=False, referee=False, aerodynamics=False,
+                              controllers=False, world_config=world_config)
+        self.world, self.visualizer = station.world, station.visualizer
+        self.diagram = builder.Build()
         self.context = self.diagram.CreateDefaultContext()
         self.plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
         self.visualizer_context = self.visualizer.GetMyContextFromRoot(self.context)

@@ -71,88 +71,132 @@ class OutcomeReward(LeafSystem):
 
 @dataclass
 class Station:
-    """A built station and handles to its parts: the ``diagram`` (the station itself), the
-    ``world``, the ``launcher``, the ``referee`` (None without one), the ``controllers`` (one per
-    robot), ``seeded``: its systems that draw random numbers (the arm's torque noise), and the
-    Meshcat ``visualizer`` (None without one)."""
+    """A station's parts and ports: the ``diagram`` (the station as a Diagram of its own, from
+    :func:`build_station`; None when its parts were added to a caller's builder by
+    :func:`add_station`), the ``world``, the ``launcher``, the ``referee`` (None without one),
+    the ``controllers`` (one per robot), ``seeded``: its systems that draw random numbers (the
+    arm's torque noise, the station camera), the Meshcat ``visualizer`` (None without one), and
+    the named ports of the module docstring (``GetInputPort``, ``GetOutputPort``: the Diagram's
+    exported ports, or the parts' own ports inside the caller's builder)."""
 
-    diagram: Diagram
+    diagram: Diagram | None
     world: World
-    launcher: BallLauncher | None
-    referee: object | None
+    launcher: BallLauncher | None = None
+    referee: object | None = None
     controllers: list = field(default_factory=list)
     seeded: list = field(default_factory=list)
     visualizer: object | None = None
+    inputs: dict = field(default_factory=dict)
+    outputs: dict = field(default_factory=dict)
+
+    def GetInputPort(self, name: str):  # noqa: N802 (Drake's name: a Station reads as a Diagram)
+        """The input port ``name`` (KeyError naming the ports if there is none)."""
+        if self.diagram is not None:
+            return self.diagram.GetInputPort(name)
+        return _port(self.inputs, name, "input")
+
+    def GetOutputPort(self, name: str):  # noqa: N802
+        """The output port ``name`` (KeyError naming the ports if there is none)."""
+        if self.diagram is not None:
+            return self.diagram.GetOutputPort(name)
+        return _port(self.outputs, name, "output")
 
 
-def build_station(scenario, robots: int = 1, meshcat=None, end_when_decided: bool = True,
-                  launcher: bool = True, referee: bool = True, aerodynamics: bool = True,
-                  controllers: bool = True, world_config=None, camera: bool = False) -> Station:
-    """The station of ``scenario`` with ``robots`` WAMs (0, 1 or 2) and its parts' handles.
+def _port(ports: dict, name: str, kind: str):
+    try:
+        return ports[name]
+    except KeyError:
+        raise KeyError(f"the station has no {kind} port {name!r}; it has "
+                       f"{', '.join(ports)}") from None
+
+
+def build_station(scenario, robots: int = 1, meshcat=None, **parts) -> Station:
+    """The station of ``scenario`` with ``robots`` WAMs (0, 1 or 2) as a Diagram of its own
+    (named ``station``, its ports exported by name), and its parts' handles; ``parts``: as
+    :func:`add_station`'s."""
+    builder = DiagramBuilder()
+    station = add_station(builder, scenario, robots, meshcat, **parts)
+    for name, port in station.inputs.items():
+        builder.ExportInput(port, name)
+    for name, port in station.outputs.items():
+        builder.ExportOutput(port, name)
+    station.diagram = builder.Build()
+    station.diagram.set_name(STATION)
+    return station
+
+
+def add_station(builder: DiagramBuilder, scenario, robots: int = 1, meshcat=None,
+                end_when_decided: bool = True, launcher: bool = True, referee: bool = True,
+                aerodynamics: bool = True, controllers: bool = True, world_config=None,
+                camera: bool = False) -> Station:
+    """Add the station's parts to ``builder`` (no sub-diagram: the serve and rally diagrams are
+    built this way, so that their systems and state are laid out as before the station) and
+    return their handles and named ports.
 
     ``end_when_decided``: the (one-robot) referee ends the simulation once the outcome is
     decided. ``launcher``, ``referee``, ``aerodynamics``, ``controllers``: leave a part out (the
     ball-only world has no launcher or referee, the recording scene only the plant; a station
     with only the plant may have ``scenario`` None). ``world_config``: the world's settings
     instead of ``scenario.world`` (with_robot and with_second_robot follow ``robots`` either
-    way). ``camera``: a camera of ``scenario.camera`` on the ball, its frames exported as
-    ``camera_frames`` (the camera is in ``seeded``)."""
+    way). ``camera``: a camera of ``scenario.camera`` on the ball, its frames the
+    ``camera_frames`` port (the camera is in ``seeded``)."""
     import copy
 
     if robots not in (0, 1, 2):
         raise ValueError(f"a station has 0, 1 or 2 robots, not {robots!r}")
     config = copy.copy(world_config if world_config is not None else scenario.world)
     config.with_robot, config.with_second_robot = robots >= 1, robots == 2
-    builder = DiagramBuilder()
     world = add_world(builder, config)
     plant = world.plant
-    launcher_system = referee_system = None
+    station = Station(None, world)
+    outputs = station.outputs
     if launcher:
-        launcher_system = builder.AddNamedSystem("ball_launcher", BallLauncher(scenario.launcher))
+        station.launcher = builder.AddNamedSystem("ball_launcher",
+                                                  BallLauncher(scenario.launcher))
     if aerodynamics:
         add_aerodynamics(builder, world, scenario.aerodynamics)
-    ball = plant.get_state_output_port(world.ball)
-    builder.ExportOutput(ball, "ball_state")
-    builder.ExportOutput(plant.get_contact_results_output_port(), "contact_results")
+    ball = outputs["ball_state"] = plant.get_state_output_port(world.ball)
+    outputs["contact_results"] = plant.get_contact_results_output_port()
     robot_instances = [r for r in (world.robot, world.robot_b) if r is not None]
     if referee and robots <= 1:
-        referee_system = builder.AddNamedSystem("referee", _referee(scenario, world,
-                                                                    end_when_decided))
+        referee_system = station.referee = builder.AddNamedSystem(
+            "referee", _referee(scenario, world, end_when_decided))
         builder.Connect(ball, referee_system.get_input_port(0))
         if world.robot is not None:
             builder.Connect(plant.get_state_output_port(world.robot),
                             referee_system.GetInputPort("robot_state"))
         builder.Connect(plant.get_contact_results_output_port(),
                         referee_system.get_input_port(2))
-        builder.ExportOutput(referee_system.GetOutputPort("outcome"), "outcome")
+        outputs["outcome"] = referee_system.GetOutputPort("outcome")
         reward = builder.AddNamedSystem("reward", OutcomeReward())
         builder.Connect(referee_system.GetOutputPort("outcome"), reward.get_input_port(0))
-        builder.ExportOutput(reward.GetOutputPort("reward"), "reward")
+        outputs["reward"] = reward.GetOutputPort("reward")
     elif referee:
-        referee_system = builder.AddNamedSystem("rally_referee", _rally_referee(scenario, world))
+        referee_system = station.referee = builder.AddNamedSystem(
+            "rally_referee", _rally_referee(scenario, world))
         builder.Connect(ball, referee_system.GetInputPort("ball_state"))
-        builder.ExportOutput(referee_system.GetOutputPort("rally"), "rally")
+        outputs["rally"] = referee_system.GetOutputPort("rally")
     if robots == 2:
         from pydrake.systems.primitives import MatrixGain
 
         mirror = builder.AddNamedSystem("mirror_B", MatrixGain(mirror_matrix13()))
         builder.Connect(ball, mirror.get_input_port())
-        builder.ExportOutput(mirror.get_output_port(), "ball_state_B")
-    station = Station(None, world, launcher_system, referee_system)
+        outputs["ball_state_B"] = mirror.get_output_port()
     if camera:
         from tt_drake.systems.ball_camera import BallCamera
 
-        station_camera = builder.AddNamedSystem("ball_camera", BallCamera(scenario.camera))
+        station_camera = builder.AddNamedSystem("station_camera", BallCamera(scenario.camera))
         builder.Connect(ball, station_camera.get_input_port(0))
-        builder.ExportOutput(station_camera.GetOutputPort("measurement"), "camera_frames")
+        outputs["camera_frames"] = station_camera.GetOutputPort("measurement")
         station.seeded.append(station_camera)
     for k, robot in enumerate(robot_instances):
         state = plant.get_state_output_port(robot)
         if referee and robots == 2:
-            builder.Connect(state, referee_system.GetInputPort(f"robot_{SIDES[k].lower()}_state"))
-        builder.ExportOutput(state, arm_port(k, "state"))
-        builder.ExportOutput(plant.get_generalized_acceleration_output_port(robot),
-                             arm_port(k, "acceleration"))
+            builder.Connect(state, station.referee.GetInputPort(
+                f"robot_{SIDES[k].lower()}_state"))
+        outputs[arm_port(k, "state")] = state
+        outputs[arm_port(k, "acceleration")] = plant.get_generalized_acceleration_output_port(
+            robot)
         if controllers:
             _add_controller(builder, scenario, world, robot, k, robots, station)
     if meshcat is not None:
@@ -160,8 +204,6 @@ def build_station(scenario, robots: int = 1, meshcat=None, end_when_decided: boo
 
         station.visualizer = MeshcatVisualizer.AddToBuilder(
             builder, world.scene_graph, meshcat, MeshcatVisualizerParams())
-    station.diagram = builder.Build()
-    station.diagram.set_name(STATION)
     return station
 
 
@@ -175,7 +217,7 @@ def make_station(scenario, robots: int = 1, meshcat=None, camera: bool = False) 
     rally's), with a ``meshcat`` (``pydrake.geometry.Meshcat``) its visualizer, with ``camera``
     a camera's frames: the ports of the module docstring's table. Its parts are reachable by
     name (``plant``, ``ball_launcher``, ``referee`` or ``rally_referee``, ``wam_controller`` or
-    ``wam_controller_A`` and ``_B``, ``ball_camera``)."""
+    ``wam_controller_A`` and ``_B``, ``station_camera``)."""
     return build_station(scenario, robots, meshcat, camera=camera).diagram
 
 
@@ -219,11 +261,10 @@ def _add_controller(builder, scenario, world: World, robot, side: int, robots: i
     name = "wam_controller" if robots == 1 else f"wam_controller_{SIDES[side]}"
     controller = add_wam_controller(builder, world.plant, robot, c.kp, c.ki, c.kd, name=name,
                                     mass_scale=c.mass_scale, inertia_scale=c.inertia_scale)
-    builder.ExportInput(controller.get_input_port_desired_state(),
-                        arm_port(side, "desired_state"))
-    builder.ExportInput(controller.get_input_port_desired_acceleration(),
-                        arm_port(side, "desired_acceleration"))
-    builder.ExportOutput(controller.GetOutputPort("actuation"), arm_port(side, "torque"))
+    station.inputs[arm_port(side, "desired_state")] = controller.get_input_port_desired_state()
+    station.inputs[arm_port(side, "desired_acceleration")] = (
+        controller.get_input_port_desired_acceleration())
+    station.outputs[arm_port(side, "torque")] = controller.GetOutputPort("actuation")
     station.controllers.append(controller)
     if robots == 1:
         noise = add_joint_faults(builder, world.plant, robot, controller, c.joint_coulomb,
@@ -233,11 +274,13 @@ def _add_controller(builder, scenario, world: World, robot, side: int, robots: i
 
 
 def station_ports(diagram, side: int = 0):
-    """What a player function reads from the world and the controller, as the station
-    ``diagram``'s (a subsystem of the builder the player is added to) ports for robot ``side``:
-    (world view, controller view) (:class:`tt_drake.diagrams.players.WorldPorts`,
-    :class:`tt_drake.diagrams.players.ControllerPorts`). Robot B's view sees the ball in its
-    own frame (``ball_state_B``)."""
+    """What a player function reads from the world and the controller, as the station's ports
+    for robot ``side``: (world view, controller view)
+    (:class:`tt_drake.diagrams.players.WorldPorts`,
+    :class:`tt_drake.diagrams.players.ControllerPorts`). ``diagram``: the station Diagram (a
+    subsystem of the builder the player is added to) or the :class:`Station` of
+    :func:`add_station` (its parts in that builder). Robot B's view sees the ball in its own
+    frame (``ball_state_B``)."""
     from tt_drake.diagrams.players import ControllerPorts, WorldPorts
 
     ball = diagram.GetOutputPort("ball_state" if side == 0 else "ball_state_B")

@@ -13,6 +13,7 @@ from tt_drake.diagrams.players import (
     player_function,
     player_names,
     register_player,
+    unregister_player,
 )
 from tt_drake.diagrams.rally import RallyDiagram, rally_scenario
 from tt_drake.diagrams.scenario import load_scenario
@@ -47,7 +48,12 @@ def add_posture_holder(builder, world, controller, scenario) -> list:
     return []
 
 
-register_player("posture_holder", add_posture_holder)
+@pytest.fixture(scope="module", autouse=True)
+def registered():
+    """The one registration, for this module's tests only (the registry is the process's)."""
+    register_player("posture_holder", add_posture_holder)
+    yield
+    unregister_player("posture_holder")
 
 
 def test_the_registered_player_is_listed_and_an_unknown_name_is_refused():

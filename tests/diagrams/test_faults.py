@@ -94,7 +94,7 @@ def test_defaults_add_no_fault_and_keep_the_controller_model_exact():
     assert scenario.launcher.vy_range == list(DEFAULT_VY_RANGE)
     assert scenario.camera == CameraConfig()
     diagram = ServeDiagram(scenario, "idle")
-    names = {s.get_name() for s in diagram.station.GetSystems()}  # the arm's parts
+    names = {s.get_name() for s in diagram.diagram.GetSystems()}
     assert not names & set(FAULT_SYSTEMS)
     assert len(diagram.seeded) == 1  # the launcher only
 

@@ -11,6 +11,7 @@ from tt_drake.diagrams.players import (
     player_names,
     plays_learned_artefacts,
     register_player,
+    unregister_player,
 )
 from tt_drake.diagrams.scenario import load_scenario
 
@@ -32,6 +33,15 @@ def test_a_learned_player_without_its_artefacts_is_refused_before_any_simulation
     check_player("analytical", scenario)  # nothing to check
     with pytest.raises(PlayerError, match="unknown player 'nobody'"):
         check_player("nobody", scenario)
+
+
+def test_a_registered_player_can_be_removed_again():
+    register_player("for_a_moment", episodes.add_idle_player)
+    assert player_names()[-1] == "for_a_moment"
+    unregister_player("for_a_moment")
+    assert "for_a_moment" not in player_names()
+    with pytest.raises(PlayerError, match="unknown player 'for_a_moment'"):
+        unregister_player("for_a_moment")
 
 
 @pytest.mark.parametrize("name", ["", " padded", None])
