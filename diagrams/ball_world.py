@@ -1,27 +1,38 @@
 """A ball-only world (table, net, floor, ball, aerodynamics) that replays launches fast: built
 once, each run restores the initial context. Used to generate labelled ball flights and by the
-physics tests."""
+physics tests; by default at the simulation recipe's accuracy throughout (no flight
+accuracy)."""
 
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import VectorLogSink
 
-from tt_drake.systems.aerodynamics import AerodynamicsConfig, add_aerodynamics
-from tt_drake.systems.world import WorldConfig, add_world, make_simulator, set_ball_state
+from tt_drake.diagrams.scenario import Scenario
+from tt_drake.diagrams.station import add_station, robots_of
+from tt_drake.systems.aerodynamics import AerodynamicsConfig
+from tt_drake.systems.world import (
+    RECIPE_FLIGHT_ACCURACY,
+    WorldConfig,
+    make_simulator,
+    set_ball_state,
+)
 
 
 class BallOnlyWorld:
     def __init__(self, log_period: float = 5e-4, aerodynamics: bool = True,
                  config: WorldConfig | None = None):
         builder = DiagramBuilder()
-        self.config = config or WorldConfig(with_robot=False)
-        self.world = add_world(builder, self.config)
-        plant = self.world.plant
-        add_aerodynamics(builder, self.world, AerodynamicsConfig(enabled=aerodynamics))
+        self.config = config or WorldConfig(with_robot=False,
+                                             flight_accuracy=RECIPE_FLIGHT_ACCURACY)
+        scenario = Scenario(world=self.config,
+                            aerodynamics=AerodynamicsConfig(enabled=aerodynamics))
+        station = add_station(builder, scenario, robots_of(self.config), launcher=False,
+                              referee=False, controllers=False)
+        self.world = station.world
         self.logger = builder.AddNamedSystem("ball_logger", VectorLogSink(13, log_period))
-        builder.Connect(plant.get_state_output_port(self.world.ball), self.logger.get_input_port())
+        builder.Connect(station.GetOutputPort("ball_state"), self.logger.get_input_port())
         self.diagram = builder.Build()
-        self.simulator = make_simulator(self.diagram, self.config)
+        self.simulator = make_simulator(self.diagram, self.config, self.world.plant)
         self.context = self.simulator.get_mutable_context()
         self._initial = self.context.Clone()
 

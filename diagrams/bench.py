@@ -36,9 +36,11 @@ from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
-from tt_drake.diagrams.scenario import Scenario
+from tt_drake.diagrams.players import ControllerPorts
+from tt_drake.diagrams.scenario import ControllerConfig, Scenario
+from tt_drake.diagrams.station import add_station, arm_port
 from tt_drake.serves import ServeSampler
-from tt_drake.systems.world import add_world, make_simulator, set_ball_state
+from tt_drake.systems.world import RECIPE_FLIGHT_ACCURACY, make_simulator, set_ball_state
 
 # The recipe the C++ reference diagram was defined with (docs/design.md, "Simulation recipe"):
 # kept fixed.
@@ -61,17 +63,22 @@ def _swing(duration: float) -> PiecewisePolynomial:
 
 class ReferenceDiagram:
     def __init__(self, scenario: Scenario, duration: float):
-        from tt_drake.systems.wam import add_wam_controller
         from tt_drake.wam_params import AWAITING
 
         world_config = copy.copy(scenario.world)
         world_config.simulator = REFERENCE_SIMULATOR
-        world_config.flight_accuracy = 0.0  # the recipe: one accuracy throughout
-        builder = DiagramBuilder()
-        self.world = add_world(builder, world_config)
+        world_config.flight_accuracy = RECIPE_FLIGHT_ACCURACY  # one accuracy throughout
+        # The station's plant and the arm's controller at the scenario's gains (its model exact,
+        # no joint faults), without launcher, aerodynamics or referee: no Python system.
+        reference = copy.copy(scenario)
         c = scenario.controller
-        controller = add_wam_controller(builder, self.world.plant, self.world.robot, c.kp, c.ki,
-                                        c.kd)
+        reference.controller = ControllerConfig(kp=list(c.kp), ki=list(c.ki), kd=list(c.kd))
+        builder = DiagramBuilder()
+        station = add_station(builder, reference, robots=1, launcher=False, referee=False,
+                              aerodynamics=False, world_config=world_config)
+        self.world = station.world
+        controller = ControllerPorts(station.GetInputPort(arm_port(0, "desired_state")),
+                                     station.GetInputPort(arm_port(0, "desired_acceleration")))
         traj = _swing(duration)
         source = builder.AddNamedSystem("swing", TrajectorySource(traj, 1))
         builder.Connect(source.get_output_port(), controller.get_input_port_desired_state())
@@ -79,7 +86,7 @@ class ReferenceDiagram:
                                        TrajectorySource(traj.derivative(2)))
         builder.Connect(accel.get_output_port(), controller.get_input_port_desired_acceleration())
         self.diagram = builder.Build()
-        self.simulator = make_simulator(self.diagram, world_config)
+        self.simulator = make_simulator(self.diagram, world_config, self.world.plant)
         self.context = self.simulator.get_mutable_context()
         plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
         self.world.plant.SetPositions(plant_context, self.world.robot, np.asarray(AWAITING))
@@ -290,11 +297,10 @@ def _time_parallel(scenario: Scenario, player: str, seeds: list[int], workers: i
       hypervisor."""
     import os
 
-    from tt_drake.diagrams.episodes import LEARNED_PLAYERS, load_learned_player
     from tt_drake.diagrams.parallel import run_episodes
+    from tt_drake.diagrams.players import check_player
 
-    if player in LEARNED_PLAYERS:
-        load_learned_player(scenario, primitives=player == "momp", keep=True)
+    check_player(player, scenario)  # a learned player's artefacts, kept for the workers
     jiffies0 = _machine_jiffies()
     t0 = time.perf_counter()
     first = None

@@ -34,6 +34,12 @@ import sys
 from collections.abc import Callable
 
 from tt_drake.constants import MAX_EXCHANGES
+from tt_drake.diagrams.players import (
+    check_player,
+    player_names,
+    plays_learned_artefacts,
+    registered_player,
+)
 from tt_drake.rally_aim import AIMS
 
 EXIT_BAD_INPUT = 2
@@ -44,9 +50,9 @@ class CliError(Exception):
 
 
 # The names each option accepts (their registries import pydrake, too slow for --help; tests
-# check these equal tt_drake.diagrams.episodes.PLAYERS, tt_drake.systems.hitting_configuration.
-# SOURCES and tt_drake.diagrams.parallel.EXECUTORS).
-PLAYER_NAMES = ("idle", "analytical", "momp", "crkr")
+# check these equal tt_drake.systems.hitting_configuration.SOURCES and
+# tt_drake.diagrams.parallel.EXECUTORS). The players' registry imports no pydrake: --player
+# offers every player registered when the parser is built.
 CONFIGURATION_NAMES = ("crkr", "analytical")
 ARTEFACT_SET_NAMES = ("paper", "hard")  # tt_drake.models.ARTEFACT_SETS
 PROTOCOL_NAMES = ("paper", "hard", "hard-stiff")  # tt_drake.diagrams.reproduce.PROTOCOLS
@@ -199,8 +205,9 @@ def _add_perception_option(parser: argparse.ArgumentParser) -> None:
 
 
 def _add_player_option(p: argparse.ArgumentParser, default: str | None) -> None:
-    p.add_argument("--player", default=default, type=_one_of("player", PLAYER_NAMES),
-                   choices=PLAYER_NAMES,
+    names = player_names()
+    p.add_argument("--player", default=default, type=_one_of("player", names),
+                   choices=names,
                    help="which player returns the serves" + ("" if default else
                                                              " (default: idle, which never "
                                                              "swings)"))
@@ -239,9 +246,9 @@ def build_parser() -> argparse.ArgumentParser:
                                   "play (docs/rally.md)")
     rally.add_argument("--players", nargs=2, metavar=("A", "B"), default=["analytical",
                                                                          "analytical"],
-                       type=_one_of("player", PLAYER_NAMES),
+                       type=_one_of("player", player_names()),
                        help=f"robot A's and robot B's players, each one of "
-                            f"{', '.join(PLAYER_NAMES)}")
+                            f"{', '.join(player_names())}")
     rally.add_argument("--rallies", type=_serve_count, default=10, help="number of rallies")
     rally.add_argument("--seed", type=_seed, default=0, help="base seed of the run")
     rally.add_argument("--start", choices=("serve", "rally"), default="serve",
@@ -424,7 +431,7 @@ def _use_shipped_artefacts(player: str | None, scenario, artefact_set: str | Non
     if artefact_set is not None and named:
         raise CliError("--artefacts picks a shipped set of library, CrKR and predictor; "
                          "name either it or artefact files, not both")
-    if player not in ("momp", "crkr") or named:
+    if not plays_learned_artefacts(player) or named:
         return
     chosen = artefact_set or "paper"
     use_artefact_set(learned, chosen, configuration_given or player == "crkr")
@@ -444,19 +451,13 @@ def _check_serves(scenario) -> None:
 
 
 def _check_player(name: str) -> None:
-    from tt_drake.diagrams.episodes import PLAYERS, PlayerError
-
-    if name not in PLAYERS:
-        raise PlayerError(f"unknown player {name!r}; choose one of {', '.join(PLAYERS)}")
+    registered_player(name)  # PlayerError naming the choices
 
 
 def _check_learned(player: str, scenario) -> None:
-    """Fail with one line before any simulation if a learned player's artefacts are unusable."""
-    from tt_drake.diagrams.episodes import LEARNED_PLAYERS, load_learned_player
-
-    if player in LEARNED_PLAYERS:
-        # Kept: the diagram built next takes these instead of loading them again.
-        load_learned_player(scenario, primitives=player == "momp", keep=True)
+    """Fail with one line before any simulation if the player cannot play the scenario (a
+    learned player's artefacts are unusable; they are kept for the diagram built next)."""
+    check_player(player, scenario)
 
 
 def _serve(args) -> None:
@@ -517,7 +518,7 @@ def _use_rally_artefacts(players: tuple, scenario) -> None:
     from tt_drake.models import shipped_artefact
 
     learned = scenario.learned
-    if not set(players) & {"momp", "crkr"} or learned.library or learned.crkr \
+    if not any(plays_learned_artefacts(p) for p in players) or learned.library or learned.crkr \
             or learned.predictor:
         return
     if "momp" in players:

@@ -27,6 +27,7 @@ from pydrake.systems.primitives import VectorLogSink
 
 from tt_drake.ball_model import CompliantBounceBallModel
 from tt_drake.constants import PLANES
+from tt_drake.diagrams.players import player_system
 from tt_drake.hitting_point import observation_frames, plane_crossing_from_samples
 from tt_drake.stages import AWAITING, FOLLOW_THROUGH, HITTING, PREPARATION, STAGES
 
@@ -61,8 +62,7 @@ class DemonstrationRecorder:
                                                            VectorLogSink(7, 1.0 / SAMPLE_RATE))
             builder.Connect(plant.get_generalized_acceleration_output_port(world.robot),
                             self.acceleration_log.get_input_port())
-        self.player_name = next((name for name in ("analytical_player", "momp_player")
-                                 if builder.HasSubsystemNamed(name)), None)
+        self.player = player_system(builder)
 
     def _logs(self):
         return [log for log in (self.ball_log, self.estimator_log, self.status_log,
@@ -87,9 +87,9 @@ class DemonstrationRecorder:
                   "qd_hit": NAN7, "durations": [0.0] * len(STAGES),
                   "trajectory": np.zeros((0, 23)), "recorded": np.zeros((0, 23)),
                   "spin_hit": [math.nan] * 3, **_outcome_fields(outcome)}
-        if self.player_name is None:
+        if self.player is None:
             return record
-        player = diagram.GetSubsystemByName(self.player_name)
+        player = self.player
         state = player.player_state(player.GetMyContextFromRoot(context))
         stroke = state.stroke
         if stroke is None:

@@ -1,17 +1,16 @@
 """Build the serve diagram for a scenario and a player, and run serve episodes on it.
 
-The diagram (docs/design.md, "The serve diagram"): BallLauncher, MultibodyPlant (WAM + racket,
-table, net, floor, ball), Aerodynamics, the player's trajectory source feeding Drake's
-InverseDynamicsController, and the Referee. It is built once; each episode restores a saved context
+The diagram (docs/design.md, "The serve diagram"): the station of one robot
+(:mod:`tt_drake.diagrams.station`: BallLauncher, MultibodyPlant (WAM + racket, table, net, floor,
+ball), Aerodynamics, Drake's InverseDynamicsController and the Referee) with the player wired to
+its ports, and the episodes' loggers. It is built once; each episode restores a saved context
 (``SetTimeStateAndParametersFrom`` + ``Initialize``, docs/design.md), sets the launcher's seed, puts
 the ball at the launch state and simulates until the referee ends the episode (the ball reached the
 floor) or, at the latest, the predicted crossing of the hitting plane plus
 ``Scenario.after_crossing``.
 
-Players are registered in :data:`PLAYERS`: a function that adds the player's systems to the
-builder, connects them to the controller's desired-state and desired-acceleration inputs, and
-returns the systems that draw random numbers (each has ``set_seed(context, seed)``; the episode
-gives each its own seed derived from the episode's).
+The players are registered in :mod:`tt_drake.diagrams.players` (the protocol of a player
+function is there); the built-in players' functions are here.
 """
 
 import time
@@ -19,25 +18,28 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from pydrake.systems.analysis import ApplySimulatorConfig
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, VectorLogSink
 
 from tt_drake.arm_metrics import arm_metrics
+from tt_drake.diagrams.players import (  # noqa: F401 (PlayerError: re-exported)
+    PlayerError,
+    WorldPorts,
+    player_function,
+    player_system,
+)
 from tt_drake.diagrams.scenario import Scenario, validate
+from tt_drake.diagrams.station import (
+    add_station,
+    arm_port,
+    awaiting_posture,
+    reset_episode,
+    station_ports,
+)
 from tt_drake.referee_rules import Outcome
 from tt_drake.seeds import episode_seed  # noqa: F401  (re-exported: runners import it here)
-from tt_drake.systems.aerodynamics import add_aerodynamics
-from tt_drake.systems.ball_launcher import BallLauncher
-from tt_drake.systems.referee import Referee
 from tt_drake.systems.wam import SERVO_HOLD, add_servo_hold, hold_first_setpoint
-from tt_drake.systems.world import (
-    World,
-    add_world,
-    advance_in_segments,
-    set_ball_state,
-    simulator_and_schedule,
-)
+from tt_drake.systems.world import World, advance_in_segments, simulator_and_schedule
 from tt_drake.wam_params import SERVO_PERIOD
 
 # The players' set-points are held for a servo tick; they evaluate their plans half a tick ahead.
@@ -49,11 +51,8 @@ SETPOINT_LEAD = 0.5 * SERVO_PERIOD
 NO_CROSSING_DURATION = 3.0
 
 
-class PlayerError(ValueError):
-    """An unknown player name or a player that cannot be built."""
 
-
-def _idle_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario) -> list:
+def add_idle_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario) -> list:
     """Hold the awaiting posture: constant desired state (q_await, 0) and zero acceleration."""
     from tt_drake.wam_params import AWAITING
 
@@ -270,17 +269,28 @@ def add_learned_player(builder: DiagramBuilder, world: World, controller, scenar
     return seeded
 
 
-def _momp_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario) -> list:
+def add_momp_player(builder: DiagramBuilder, world: World, controller,
+                    scenario: Scenario) -> list:
+    """The ``momp`` player: :func:`add_learned_player` with the motor primitives."""
     return add_learned_player(builder, world, controller, scenario, primitives=True)
 
 
-def _crkr_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario) -> list:
+def add_crkr_player(builder: DiagramBuilder, world: World, controller,
+                    scenario: Scenario) -> list:
+    """The ``crkr`` player: :func:`add_learned_player` with the teacher's quintic stages."""
     return add_learned_player(builder, world, controller, scenario, primitives=False)
 
 
-PLAYERS: dict[str, Callable] = {"idle": _idle_player, "analytical": add_analytical_player,
-                                "momp": _momp_player, "crkr": _crkr_player}
-LEARNED_PLAYERS = ("momp", "crkr")
+def check_momp_artefacts(scenario: Scenario) -> None:
+    """Load and check the ``momp`` player's artefacts, kept for the diagram built next
+    (:func:`load_learned_player` with ``keep``)."""
+    load_learned_player(scenario, primitives=True, keep=True)
+
+
+def check_crkr_artefacts(scenario: Scenario) -> None:
+    """Load and check the ``crkr`` player's artefacts (no primitive library), kept for the
+    diagram built next."""
+    load_learned_player(scenario, primitives=False, keep=True)
 
 
 @dataclass
@@ -338,12 +348,11 @@ class ServeDiagram:
     def __init__(self, scenario: Scenario, player: str | Callable = "idle",
                  log_ball: bool = False, record: bool = False,
                  end_when_decided: bool | None = None, log_setpoints: bool = False):
-        """``player``: a name in :data:`PLAYERS`, or a function with their signature (tools:
-        ``tt-drake bench`` replays set-points with one). ``log_setpoints``: log the servo holds'
-        outputs (the set-points the controller got) at every tick, for :meth:`setpoints`."""
-        if isinstance(player, str) and player not in PLAYERS:
-            raise PlayerError(f"unknown player {player!r}; choose one of {', '.join(PLAYERS)}")
-        add_player = PLAYERS[player] if isinstance(player, str) else player
+        """``player``: a registered name (:mod:`tt_drake.diagrams.players`), or a player
+        function (tools: ``tt-drake bench`` replays set-points with one). ``log_setpoints``: log
+        the servo holds' outputs (the set-points the controller got) at every tick, for
+        :meth:`setpoints`."""
+        add_player = player_function(player)
         validate(scenario)  # nothing invalid reaches Drake, whoever built the scenario
         self.scenario = scenario
         # The referee ends an episode once the return's outcome is decided, except when the
@@ -352,40 +361,26 @@ class ServeDiagram:
         # result is taken (:meth:`extend`): recording is observation only.
         self.end_when_decided = not record if end_when_decided is None else end_when_decided
         builder = DiagramBuilder()
-        world = add_world(builder, scenario.world)
-        self.world = world
-        plant = world.plant
-        self.launcher = builder.AddNamedSystem("ball_launcher", BallLauncher(scenario.launcher))
-        add_aerodynamics(builder, world, scenario.aerodynamics)
-        self.referee = builder.AddNamedSystem("referee", self._make_referee())
-        builder.Connect(plant.get_state_output_port(world.ball), self.referee.get_input_port(0))
-        if world.robot is not None:
-            builder.Connect(plant.get_state_output_port(world.robot),
-                            self.referee.GetInputPort("robot_state"))
-        builder.Connect(plant.get_contact_results_output_port(), self.referee.get_input_port(2))
-        self.controller = None
+        parts = station = self.station = add_station(
+            builder, scenario, robots=int(scenario.world.with_robot),
+            end_when_decided=self.end_when_decided)
+        self.world, self.launcher, self.referee = parts.world, parts.launcher, parts.referee
+        self.controller = self.arm_logger = self.torque_logger = None
         self.seeded = [self.launcher]
         period = 1.0 / scenario.referee_rate
-        if world.robot is not None:
-            from tt_drake.systems.wam import add_joint_faults, add_wam_controller
-
-            c = scenario.controller
-            self.controller = add_wam_controller(builder, plant, world.robot, c.kp, c.ki, c.kd,
-                                                 mass_scale=c.mass_scale,
-                                                 inertia_scale=c.inertia_scale)
+        # What the player and the loggers read: the station's ports.
+        world = WorldPorts(station.GetOutputPort("ball_state"))
+        if self.world.robot is not None:
+            world, self.controller = station_ports(station)
             self.seeded += add_player(builder, world, self.controller, scenario)
-            noise = add_joint_faults(builder, plant, world.robot, self.controller,
-                                     c.joint_coulomb, c.joint_viscous, c.coulomb_velocity,
-                                     c.torque_noise)
-            if noise is not None:
-                self.seeded.append(noise)
+            self.seeded += parts.seeded  # the arm's torque noise
             # Arm state and commanded torques at the referee's rate (aligned events: no extra
             # integrator stops), for joint-limit and saturation metrics.
             self.arm_logger = builder.AddNamedSystem("arm_logger", VectorLogSink(14, period))
-            builder.Connect(plant.get_state_output_port(world.robot),
+            builder.Connect(station.GetOutputPort(arm_port(0, "state")),
                             self.arm_logger.get_input_port())
             self.torque_logger = builder.AddNamedSystem("torque_logger", VectorLogSink(7, period))
-            builder.Connect(self.controller.GetOutputPort("actuation"),
+            builder.Connect(station.GetOutputPort(arm_port(0, "torque")),
                             self.torque_logger.get_input_port())
         self.setpoint_logs = []
         if log_setpoints and builder.HasSubsystemNamed(SERVO_HOLD):
@@ -393,10 +388,7 @@ class ServeDiagram:
             builder.Connect(builder.GetSubsystemByName(SERVO_HOLD).get_output_port(),
                             log.get_input_port())
             self.setpoint_logs.append(log)
-        self.player = None
-        for name in ("analytical_player", "momp_player"):
-            if builder.HasSubsystemNamed(name):
-                self.player = builder.GetSubsystemByName(name)
+        self.player = player_system(builder)
         # When the learned player's hitting stage began, was the prediction out the GPR's final
         # one or an early physical-model one? Logged at the referee's rate (no new event time).
         self.final_logger = None
@@ -416,7 +408,7 @@ class ServeDiagram:
             # Every recording logger samples at the referee's rate: no event time the unrecorded
             # diagram lacks, so the error-controlled integrator takes the same steps.
             self.ball_logger = builder.AddNamedSystem("ball_logger", VectorLogSink(13, period))
-            builder.Connect(plant.get_state_output_port(world.ball),
+            builder.Connect(station.GetOutputPort("ball_state"),
                             self.ball_logger.get_input_port())
             # What the robot believes: the estimated path and the predicted hitting point.
             if builder.HasSubsystemNamed("ball_flight_estimator"):
@@ -439,38 +431,19 @@ class ServeDiagram:
         # The episodes decide the integrator's accuracy once per referee tick (advance_in_segments)
         # rather than through the simulator's monitor after every step; the monitor (the same
         # schedule) stays attached for whoever steps this simulator directly.
-        self.simulator, self._schedule = simulator_and_schedule(self.diagram, scenario.world)
+        self.simulator, self._schedule = simulator_and_schedule(self.diagram, scenario.world,
+                                                                self.world.plant)
         self._segment = period
         self.context = self.simulator.get_mutable_context()
         self._set_awaiting_posture()
         self._initial = self.context.Clone()
-
-    def _make_referee(self) -> Referee:
-        world, plant = self.world, self.world.plant
-        kwargs = {}
-        if world.robot is not None:
-            from tt_drake.systems.referee import RacketCentre
-            from tt_drake.systems.wam import RACKET_CENTER_FRAME
-
-            frame = plant.GetFrameByName(RACKET_CENTER_FRAME, world.robot)
-            robot_bodies = [plant.get_body(i).index() for i in plant.GetBodyIndices(world.robot)]
-            inspector = world.scene_graph.model_inspector()
-            table_ids = [g for g in plant.GetCollisionGeometriesForBody(plant.world_body())
-                         if inspector.GetName(g).endswith("table_top")]
-            kwargs = dict(racket_centre=RacketCentre(plant, world.robot, frame),
-                          robot_body_indices=robot_bodies, table_geometry_ids=table_ids)
-        return Referee(self.scenario.referee, self.scenario.referee_rate,
-                       stop_when_decided=self.end_when_decided, **kwargs)
 
     def _set_awaiting_posture(self) -> None:
         """The arm at the awaiting posture, and the servo holds (if any) holding the player's
         first set-point, so that nothing sees their default zeros before the first tick."""
         if self.world.robot is None:
             return
-        from tt_drake.wam_params import AWAITING
-
-        plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
-        self.world.plant.SetPositions(plant_context, self.world.robot, np.asarray(AWAITING))
+        awaiting_posture(self.world, self.context)
         hold_first_setpoint(self.diagram, self.context)
 
     @property
@@ -491,16 +464,8 @@ class ServeDiagram:
         self._set_library_array("weights", weights, lambda w: np.all(np.isfinite(w)),
                                 "primitive weights",
                                 lambda w0: f"primitive weights must be {w0.shape} finite values")
-        self.context.SetTimeStateAndParametersFrom(self._initial)
-        # A fresh integrator: its step-size history would make an episode depend on the ones
-        # before it (a landing point moved 7e-7 m) and on a recording's extension of them.
-        ApplySimulatorConfig(self.scenario.world.simulator, self.simulator)
-        for k, system in enumerate(self.seeded):  # the launcher gets the episode seed itself
-            system.set_seed(system.GetMyMutableContextFromRoot(self.context),
-                            seed if k == 0 else episode_seed(seed, k))
-        serve = self.launcher.serve(self.launcher.GetMyContextFromRoot(self.context))
-        plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
-        set_ball_state(self.world, plant_context, serve.launch_state)
+        serve = reset_episode(self.simulator, self._initial, self.scenario.world.simulator,
+                              self.seeded, self.world, seed)
         for logger in self._loggers():
             logger.FindMutableLog(self.context).Clear()
         if self.recorder is not None:

@@ -78,6 +78,12 @@ and lasts one control period.
   the hitting plane plus ``Scenario.after_crossing`` (the serve episode's end). ``info`` holds
   ``is_success`` and ``outcome`` on the last step.
 
+With ``player`` (a name registered in :mod:`tt_drake.diagrams.players`, e.g. ``analytical``
+or one's own) that player drives the arm and the action offsets its desired joint positions
+instead (a residual policy, :class:`tt_drake.systems.gym_players.SetpointOffset`): the offset
+moves by a * (velocity limit / control_rate) rad per step, each joint's within +-0.5 rad, and
+starts at zero each episode. The observation and the reward are as above.
+
 Rendering (:mod:`tt_drake.diagrams.gym_render`, observation only): ``rgb_array`` renders the
 arm and the ball as they are now with Drake's VTK engine, offscreen; ``human`` adds every
 finished episode to a Meshcat recording that ``render()`` (and nothing else) writes to ``html``.
@@ -92,7 +98,6 @@ import math
 import gymnasium as gym
 import numpy as np
 from pydrake.gym import DrakeGymEnv
-from pydrake.systems.analysis import ApplySimulatorConfig
 
 from tt_drake.diagrams.episodes import (
     SETPOINT_LEAD,
@@ -100,20 +105,21 @@ from tt_drake.diagrams.episodes import (
     ServeDiagram,
     add_analytical_player,
     add_perception,
-    episode_seed,
 )
 from tt_drake.diagrams.gym_render import EpisodePages, FrameRenderer
+from tt_drake.diagrams.players import ControllerPorts, check_player, player_function
 from tt_drake.diagrams.scenario import Scenario, load_scenario, validate
+from tt_drake.diagrams.station import reset_episode
 from tt_drake.referee_rules import Outcome
 from tt_drake.systems.gym_players import (
     AbsoluteStrokePlayer,
     SetpointIncrementPlayer,
+    SetpointOffset,
     StepObservation,
     StrokeOffsetPlayer,
 )
 from tt_drake.systems.referee import RacketCentre
 from tt_drake.systems.wam import RACKET_CENTER_FRAME, add_servo_hold
-from tt_drake.systems.world import set_ball_state
 from tt_drake.wam_params import SERVO_PERIOD, SERVO_RATE
 
 OBSERVATION_FIELDS = ("p_hit_x", "p_hit_y", "p_hit_z", "v_hit_x", "v_hit_y", "v_hit_z",
@@ -188,14 +194,6 @@ def _serve_seed(env: gym.Env, options: dict | None) -> int:
     if options and options.get("serve_seed") is not None:
         return int(options["serve_seed"])
     return int(env.np_random.integers(0, 2**32))
-
-
-def _fresh_integrator(diagram: ServeDiagram) -> None:
-    """A fresh integrator, as ``ServeDiagram.run`` makes one: an error-controlled integrator
-    would otherwise start each episode with the step size the previous one ended with, and the
-    same serve would replay only to ~1e-8 m (measured: a landing 3e-8 m apart), not bit for
-    bit."""
-    ApplySimulatorConfig(diagram.scenario.world.simulator, diagram.simulator)
 
 
 def _outcome_info(outcome: Outcome, serve_seed: int) -> dict:
@@ -390,6 +388,38 @@ def _setpoint_player(builder, world, controller, scenario: Scenario, rate: float
     return seeded
 
 
+def offset_player(builder, world, controller, scenario: Scenario, player: str,
+                  rate: float) -> list:
+    """The registered ``player`` drives the arm with the agent's offset added to its desired
+    state (:class:`SetpointOffset` at ``rate``, exported as the ``actions`` input); the
+    ``observations`` output as :func:`_setpoint_player`'s, from the player's own estimator if it
+    has one (else one is added)."""
+    from pydrake.systems.primitives import Adder
+
+    offset = builder.AddNamedSystem("setpoint_offset", SetpointOffset(rate, offset=SERVO_PERIOD))
+    total = builder.AddNamedSystem("desired_state_with_offset", Adder(2, 14))
+    builder.Connect(offset.GetOutputPort("desired_state"), total.get_input_port(1))
+    builder.Connect(total.get_output_port(), controller.get_input_port_desired_state())
+    builder.ExportInput(offset.GetInputPort("increment"), "actions")
+    ports = ControllerPorts(total.get_input_port(0),
+                            controller.get_input_port_desired_acceleration())
+    seeded = player_function(player)(builder, world, ports, scenario)
+    # add_perception's systems, if the player has them.
+    seen = [n for n in ("ball_flight_estimator", "ball_oracle") if builder.HasSubsystemNamed(n)]
+    if seen:
+        estimator = builder.GetSubsystemByName(seen[0])
+    else:
+        more, estimator = add_perception(builder, world, scenario)
+        seeded = seeded + more
+    observations = builder.AddNamedSystem("observations", StepObservation())
+    builder.Connect(world.plant.get_state_output_port(world.robot),
+                    observations.get_input_port(0))
+    builder.Connect(estimator.GetOutputPort("state"), observations.get_input_port(1))
+    builder.Connect(estimator.GetOutputPort("status"), observations.get_input_port(2))
+    builder.ExportOutput(observations.get_output_port(), "observations")
+    return seeded
+
+
 class _EpisodeSimulator:
     """The serve diagram's simulator as ``DrakeGymEnv`` uses it, except that ``AdvanceTo``
     advances as the serve episodes do (:meth:`ServeDiagram.advance`: the integrator's accuracy
@@ -410,7 +440,8 @@ class ReturnBallStepEnv(_ServeEnv, DrakeGymEnv):
 
     def __init__(self, scenario: str | Scenario = "default", distribution: str | None = None,
                  control_rate: float = 100.0, reward: str = "referee",
-                 render_mode: str | None = None, html: str = "return_ball_step.html"):
+                 render_mode: str | None = None, html: str = "return_ball_step.html",
+                 player: str | None = None):
         self._init_serve_env(reward, render_mode, html)
         ratio = SERVO_RATE / float(control_rate)
         if not (math.isfinite(control_rate) and control_rate >= 50.0
@@ -418,7 +449,13 @@ class ReturnBallStepEnv(_ServeEnv, DrakeGymEnv):
             raise ValueError(f"control_rate must be >= 50 Hz and divide the {SERVO_RATE:g} Hz "
                              f"servo rate, not {control_rate}")
         self.scenario = make_scenario(scenario, distribution)
-        add_player = functools.partial(_setpoint_player, rate=float(control_rate))
+        if player is None:
+            add_player = functools.partial(_setpoint_player, rate=float(control_rate))
+        else:
+            player_function(player)  # an unknown name: PlayerError naming the choices
+            check_player(player, self.scenario)
+            add_player = functools.partial(offset_player, player=player,
+                                           rate=float(control_rate))
         self.serve_diagram = ServeDiagram(self.scenario, player=add_player,
                                           log_ball=self._logs_poses)
         self._initial = self.serve_diagram.context.Clone()
@@ -447,18 +484,14 @@ class ReturnBallStepEnv(_ServeEnv, DrakeGymEnv):
         return np.asarray(observation, dtype=np.float32), {"serve_seed": self._serve_seed}
 
     def _start_serve(self, simulator, context, seed) -> None:
-        """The serve episode's start, as ``ServeDiagram.run`` makes it: the saved initial
-        context, the seeds (the launcher gets the serve's, the others derived ones), the ball at
-        its launch state, the loggers cleared."""
+        """The serve episode's start, as ``ServeDiagram.run`` makes it
+        (:func:`tt_drake.diagrams.station.reset_episode`), the loggers cleared."""
         diagram = self.serve_diagram
         serve_seed = self._serve_seed = _serve_seed(self, self._options)
-        context.SetTimeStateAndParametersFrom(self._initial)
-        for k, system in enumerate(diagram.seeded):
-            system.set_seed(system.GetMyMutableContextFromRoot(context),
-                            serve_seed if k == 0 else episode_seed(serve_seed, k))
-        serve = diagram.launcher.serve(diagram.launcher.GetMyContextFromRoot(context))
-        set_ball_state(diagram.world, diagram.world.plant.GetMyMutableContextFromRoot(context),
-                       serve.launch_state)
+        # The episode reset of every runner (a fresh integrator included: an error-controlled
+        # integrator would otherwise start with the step size the previous episode ended with).
+        serve = reset_episode(diagram.simulator, self._initial, self.scenario.world.simulator,
+                              diagram.seeded, diagram.world, serve_seed)
         self._t_end = float(serve.crossing.t + self.scenario.after_crossing)
         for logger in (diagram.arm_logger, diagram.ball_logger):
             if logger is not None:
@@ -466,7 +499,6 @@ class ReturnBallStepEnv(_ServeEnv, DrakeGymEnv):
         crossing = np.r_[serve.crossing.position, serve.crossing.velocity, serve.crossing.t]
         self._start = EpisodeResult(serve_seed, list(serve.launch_state), list(crossing), 0.0,
                                     None, 0.0)
-        _fresh_integrator(diagram)
         simulator.Initialize()
 
     def step(self, action):

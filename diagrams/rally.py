@@ -2,8 +2,8 @@
 
 The rally diagram is the serve diagram's world with a second WAM at the other end of the table,
 mirrored through the net (``WorldConfig.with_second_robot``, :mod:`tt_drake.rally_rules`), each
-robot with its own controller and its own player: camera, estimator and player (any of
-:data:`tt_drake.diagrams.episodes.PLAYERS`), built by the same player functions as ``serve``'s,
+robot with its own controller and its own player: camera, estimator and player (any registered
+in :mod:`tt_drake.diagrams.players`), built by the same player functions as ``serve``'s,
 each inside its own sub-diagram (``player_A``, ``player_B``) whose input ``ball_state`` is the
 ball seen from that robot's frame (B's through a C++ ``MatrixGain``, the mirror M = Rz(pi)) and
 whose outputs ``desired_state``, ``desired_acceleration`` drive that robot's controller. So both
@@ -30,11 +30,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tt_drake.camera_model import MAX_CAMERA_FRAMES
-from tt_drake.diagrams.episodes import PLAYERS, PlayerError, check_run, episode_seed
+from tt_drake.diagrams.episodes import PlayerError, check_run, episode_seed
+from tt_drake.diagrams.players import ControllerPorts, player_function, player_system
 from tt_drake.diagrams.recording import RecordingScene
 from tt_drake.diagrams.scenario import Scenario, validate
 from tt_drake.rally_aim import draw_aim
-from tt_drake.rally_rules import SIDES, Exchange, RallyFault, mirror_matrix13
+from tt_drake.rally_rules import SIDES, Exchange, RallyFault
 from tt_drake.rally_stats import outgoing_figures
 
 STARTS = ("serve", "rally")
@@ -82,29 +83,18 @@ class _PortWorld:
         self.plant = self._Plant({self.ball: ball_port, self.robot: arm_port})
 
 
-class _PortController:
-    """What a player function reads from the controller: its two desired-value input ports."""
-
-    def __init__(self, state_port, acceleration_port):
-        self._state, self._acceleration = state_port, acceleration_port
-
-    def get_input_port_desired_state(self):  # noqa: D102
-        return self._state
-
-    def get_input_port_desired_acceleration(self):  # noqa: D102
-        return self._acceleration
-
-
-def build_player_side(player: str, scenario: Scenario, side: int):
-    """The sub-diagram of one side's player: inputs ``ball_state`` (13, the side's frame) and
-    ``arm_state`` (14: its arm's measured q, q_dot, which the learned player's hold reads),
-    outputs ``desired_state`` (14) and ``desired_acceleration`` (7). Returns (diagram, the
-    systems that draw random numbers, the player system)."""
+def build_player_side(player, scenario: Scenario, side: int):
+    """The sub-diagram of one side's player (a registered name or a player function): inputs
+    ``ball_state`` (13, the side's frame) and ``arm_state`` (14: its arm's measured q, q_dot,
+    which the learned player's hold reads), outputs ``desired_state`` (14) and
+    ``desired_acceleration`` (7). Every system with a ``play_again`` attribute plays again after
+    each stroke, and every planner (a ``planner`` attribute whose config has a target) aims at
+    the rally's target. Returns (diagram, the systems that draw random numbers, the player
+    system: the one with a ``stroke`` output, or None)."""
     from pydrake.systems.framework import DiagramBuilder
     from pydrake.systems.primitives import PassThrough
 
-    if player not in PLAYERS:
-        raise PlayerError(f"unknown player {player!r}; choose one of {', '.join(PLAYERS)}")
+    add_player = player_function(player)
     sub = DiagramBuilder()
     ball = sub.AddNamedSystem("ball_state", PassThrough(13))
     sub.ExportInput(ball.get_input_port(), "ball_state")
@@ -112,34 +102,33 @@ def build_player_side(player: str, scenario: Scenario, side: int):
     sub.ExportInput(arm.get_input_port(), "arm_state")
     desired = sub.AddNamedSystem("desired_state", PassThrough(14))
     accel = sub.AddNamedSystem("desired_acceleration", PassThrough(7))
-    seeded = PLAYERS[player](sub, _PortWorld(ball.get_output_port(), arm.get_output_port()),
-                             _PortController(desired.get_input_port(), accel.get_input_port()),
-                             scenario)
+    seeded = add_player(sub, _PortWorld(ball.get_output_port(), arm.get_output_port()),
+                        ControllerPorts(desired.get_input_port(), accel.get_input_port()),
+                        scenario)
     sub.ExportOutput(desired.get_output_port(), "desired_state")
     sub.ExportOutput(accel.get_output_port(), "desired_acceleration")
-    system = None
-    for name in ("analytical_player", "momp_player", "hitting_point_predictor"):
-        if sub.HasSubsystemNamed(name):
-            found = sub.GetSubsystemByName(name)
+    system = player_system(sub)
+    for found in sub.GetSystems():
+        if hasattr(found, "play_again"):
             found.play_again = True  # read at their updates
-            if name != "hitting_point_predictor":
-                system = found
     # The rally's aim replaces the single stroke's in every planner the player has (the
     # analytical player's; the learned player's with ``configuration: analytical``).
-    for name in ("analytical_player", "hitting_configuration"):
-        planner = (getattr(sub.GetSubsystemByName(name), "planner", None)
-                   if sub.HasSubsystemNamed(name) else None)
-        if planner is not None:
+    for found in sub.GetSystems():
+        planner = getattr(found, "planner", None)
+        if planner is not None and hasattr(getattr(planner, "config", None), "target_x"):
             planner.config = dataclasses.replace(
                 planner.config, target_x=scenario.rally.target_x,
                 target_y=scenario.rally.target_y,
                 flight_times=tuple(float(t) for t in scenario.rally.flight_times))
-    # The competitive aim draws each stroke's aim (tt_drake.rally_aim) in the analytical
-    # player, from the rally's seed: the player joins the seeded systems, after the others.
-    if scenario.rally.aim == "competitive" and sub.HasSubsystemNamed("analytical_player"):
-        teacher = sub.GetSubsystemByName("analytical_player")
-        teacher.aims = functools.partial(draw_aim, copy.deepcopy(scenario.rally.competitive))
-        seeded = [*seeded, teacher]
+    # The competitive aim draws each stroke's aim (tt_drake.rally_aim) in every system that
+    # takes per-stroke aims (an ``aims`` attribute: the analytical player), from the rally's
+    # seed: such a system joins the seeded systems, after the others.
+    if scenario.rally.aim == "competitive":
+        for found in sub.GetSystems():
+            if hasattr(found, "aims"):
+                found.aims = functools.partial(draw_aim,
+                                               copy.deepcopy(scenario.rally.competitive))
+                seeded = [*seeded, found]
     diagram = sub.Build()
     diagram.set_name(f"player_{SIDES[side]}")
     return diagram, seeded, system
@@ -182,14 +171,10 @@ class RallyDiagram:
                                                                       "analytical"),
                  log: bool = False):
         from pydrake.systems.framework import DiagramBuilder
-        from pydrake.systems.primitives import MatrixGain, VectorLogSink
+        from pydrake.systems.primitives import VectorLogSink
 
-        from tt_drake.systems.aerodynamics import add_aerodynamics
-        from tt_drake.systems.ball_launcher import BallLauncher
-        from tt_drake.systems.rally_referee import RallyReferee
-        from tt_drake.systems.referee import RacketCentre
-        from tt_drake.systems.wam import RACKET_CENTER_FRAME, add_wam_controller
-        from tt_drake.systems.world import add_world, make_simulator
+        from tt_drake.diagrams.station import add_station, arm_port, station_ports
+        from tt_drake.systems.world import make_simulator
 
         validate(scenario)
         c = scenario.controller
@@ -200,33 +185,18 @@ class RallyDiagram:
             raise PlayerError("a rally scenario has two robots (use rally_scenario)")
         self.scenario, self.players = scenario, tuple(players)
         builder = DiagramBuilder()
-        world = add_world(builder, scenario.world)
-        self.world = world
-        plant = world.plant
-        self.launcher = builder.AddNamedSystem("ball_launcher", BallLauncher(scenario.launcher))
-        add_aerodynamics(builder, world, scenario.aerodynamics)
-        robots = (world.robot, world.robot_b)
-        centres = tuple(RacketCentre(plant, r, plant.GetFrameByName(RACKET_CENTER_FRAME, r))
-                        for r in robots)
-        self.referee = builder.AddNamedSystem("rally_referee", RallyReferee(
-            scenario.rally, scenario.referee, scenario.referee_rate, centres))
-        ball = plant.get_state_output_port(world.ball)
-        builder.Connect(ball, self.referee.GetInputPort("ball_state"))
-        mirror = builder.AddNamedSystem("mirror_B", MatrixGain(mirror_matrix13()))
-        builder.Connect(ball, mirror.get_input_port())
+        parts = station = self.station = add_station(builder, scenario, robots=2)
+        self.world, self.launcher, self.referee = parts.world, parts.launcher, parts.referee
         self.seeded = [self.launcher]
         self.sides, self.player_systems = [], []
-        for k, (name, robot) in enumerate(zip(self.players, robots, strict=True)):
-            builder.Connect(plant.get_state_output_port(robot),
-                            self.referee.GetInputPort(f"robot_{SIDES[k].lower()}_state"))
-            controller = add_wam_controller(builder, plant, robot, c.kp, c.ki, c.kd,
-                                            name=f"wam_controller_{SIDES[k]}",
-                                            mass_scale=c.mass_scale, inertia_scale=c.inertia_scale)
+        for k, name in enumerate(self.players):
+            world, controller = station_ports(station, k)
             side, seeded, system = build_player_side(name, scenario, k)
             builder.AddSystem(side)
-            builder.Connect(ball if k == 0 else mirror.get_output_port(),
+            builder.Connect(world.plant.get_state_output_port(world.ball),
                             side.GetInputPort("ball_state"))
-            builder.Connect(plant.get_state_output_port(robot), side.GetInputPort("arm_state"))
+            builder.Connect(world.plant.get_state_output_port(world.robot),
+                            side.GetInputPort("arm_state"))
             builder.Connect(side.GetOutputPort("desired_state"),
                             controller.get_input_port_desired_state())
             builder.Connect(side.GetOutputPort("desired_acceleration"),
@@ -237,48 +207,37 @@ class RallyDiagram:
         self.loggers = []
         if log:  # at the referee's rate: no event time the unlogged diagram lacks
             period = 1.0 / scenario.referee_rate
-            for name, port, size in (("ball", ball, 13),
-                                     ("arm_A", plant.get_state_output_port(robots[0]), 14),
-                                     ("arm_B", plant.get_state_output_port(robots[1]), 14)):
+            for name, port, size in (("ball", "ball_state", 13),
+                                     ("arm_A", arm_port(0, "state"), 14),
+                                     ("arm_B", arm_port(1, "state"), 14)):
                 logger = builder.AddNamedSystem(f"{name}_logger", VectorLogSink(size, period))
-                builder.Connect(port, logger.get_input_port())
+                builder.Connect(station.GetOutputPort(port), logger.get_input_port())
                 self.loggers.append(logger)
         self.diagram = builder.Build()
         self.diagram.set_name("rally_diagram")
-        self.simulator = make_simulator(self.diagram, scenario.world)
+        self.simulator = make_simulator(self.diagram, scenario.world, self.world.plant)
         self.context = self.simulator.get_mutable_context()
         self._set_awaiting_posture()
         self._initial = self.context.Clone()
 
     def _set_awaiting_posture(self) -> None:
+        from tt_drake.diagrams.station import awaiting_posture
         from tt_drake.systems.wam import hold_first_setpoint
-        from tt_drake.wam_params import AWAITING
 
-        plant = self.world.plant
-        plant_context = plant.GetMyMutableContextFromRoot(self.context)
-        for robot in (self.world.robot, self.world.robot_b):
-            plant.SetPositions(plant_context, robot, np.asarray(AWAITING))
+        awaiting_posture(self.world, self.context)
         for side in self.sides:
             hold_first_setpoint(side, self.context)
 
     def run(self, seed: int, gamma=None) -> RallyResult:
         """Simulate one rally from ``seed`` (``gamma``: accepted for the parallel runner's
         interface; must be None)."""
-        from pydrake.systems.analysis import ApplySimulatorConfig
-
-        from tt_drake.systems.world import set_ball_state
+        from tt_drake.diagrams.station import reset_episode
 
         if gamma is not None:
             raise PlayerError("responsibilities gamma are not used by the rally")
         wall = time.perf_counter()
-        self.context.SetTimeStateAndParametersFrom(self._initial)
-        ApplySimulatorConfig(self.scenario.world.simulator, self.simulator)
-        for k, system in enumerate(self.seeded):
-            system.set_seed(system.GetMyMutableContextFromRoot(self.context),
-                            seed if k == 0 else episode_seed(seed, k))
-        serve = self.launcher.serve(self.launcher.GetMyContextFromRoot(self.context))
-        set_ball_state(self.world, self.world.plant.GetMyMutableContextFromRoot(self.context),
-                       serve.launch_state)
+        serve = reset_episode(self.simulator, self._initial, self.scenario.world.simulator,
+                              self.seeded, self.world, seed)
         for logger in self.loggers:
             logger.FindMutableLog(self.context).Clear()
         self.simulator.Initialize()

@@ -76,16 +76,17 @@ class RecordingScene:
     browser paused it)."""
 
     def __init__(self, world_config):
-        from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
         from pydrake.systems.framework import DiagramBuilder
 
-        from tt_drake.systems.world import add_world
+        from tt_drake.diagrams.station import add_station, robots_of
 
         self.meshcat = make_meshcat()
+        # Only the plant (and scene graph) of the station, drawn by the visualizer.
         builder = DiagramBuilder()
-        self.world = add_world(builder, world_config)
-        self.visualizer = MeshcatVisualizer.AddToBuilder(
-            builder, self.world.scene_graph, self.meshcat, MeshcatVisualizerParams())
+        station = add_station(builder, None, robots_of(world_config), self.meshcat,
+                              launcher=False, referee=False, aerodynamics=False,
+                              controllers=False, world_config=world_config)
+        self.world, self.visualizer = station.world, station.visualizer
         self.diagram = builder.Build()
         self.context = self.diagram.CreateDefaultContext()
         self.plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)

@@ -149,7 +149,7 @@ def load_scenario(name_or_path: str = "default") -> Scenario:
     """Load a scenario by name (``models/<name>.yaml``) or path; raise ScenarioError on any
     problem, with one line that names it. Any file but ``models/default.yaml`` itself is read on
     top of the default scenario: the fields it names change, every other one is the default
-    scenario's (not the dataclasses' defaults, which e.g. leave ``world.flight_accuracy`` at 0)."""
+    scenario's (which equal the dataclasses' defaults: tests/diagrams/test_scenario_defaults.py)."""
     path = scenario_path(name_or_path)
     if not path.is_file():
         raise ScenarioError(f"scenario file not found: {path}")

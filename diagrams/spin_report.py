@@ -87,14 +87,14 @@ def _logged_player(name: str):
     extra integrator stops)."""
     from pydrake.systems.primitives import VectorLogSink
 
-    from tt_drake.diagrams.episodes import PLAYERS
+    from tt_drake.diagrams.players import player_function
 
     def add(builder, world, controller, scenario) -> list:
         if name == "analytical":
-            seeded = PLAYERS["analytical"](builder, world, controller, scenario,
-                                           player_type=_recording_player_type())
+            seeded = player_function("analytical")(builder, world, controller, scenario,
+                                                   player_type=_recording_player_type())
         else:
-            seeded = PLAYERS[name](builder, world, controller, scenario)
+            seeded = player_function(name)(builder, world, controller, scenario)
         if builder.HasSubsystemNamed("ball_flight_estimator"):
             estimator = builder.GetSubsystemByName("ball_flight_estimator")
             log = builder.AddNamedSystem("spin_logger",

@@ -10,7 +10,8 @@ analytical player made it.
 
 :class:`SetpointIncrementPlayer` takes an action every control period: joint set-point
 increments. Ports: input ``increment`` (7, each in [-1, 1]); outputs ``desired_state`` (14) and
-``desired_acceleration`` (7) for the servo holds, as the other players.
+``desired_acceleration`` (7) for the servo holds, as the other players. :class:`SetpointOffset`
+turns the same increments into an offset added to another player's desired joint positions.
 
 :class:`AbsoluteStrokePlayer` has no teacher: it holds the awaiting posture, watches the
 estimator, and ends the simulation step at its decision point (the first planning tick at which
@@ -314,6 +315,39 @@ class SetpointIncrementPlayer(LeafSystem):
 
     def _calc_accel(self, context, output):
         output.get_mutable_value()[:] = 0.0
+
+
+class SetpointOffset(LeafSystem):
+    """The agent's offset to another player's desired joint positions (the step environment's
+    ``player`` option): every ``1 / rate`` seconds, at k / rate + ``offset``, it reads
+    ``increment`` a in [-1, 1]^7 and adds a * ``max_increment`` to the offset dq, each joint's
+    kept within +-``max_offset`` (rad). Output ``desired_state`` (14): (dq, 0), constant between
+    updates (from the discrete state: no work inside the integrator's steps). ``max_increment``
+    defaults to the joint velocity limits times the period, as :class:`SetpointIncrementPlayer`'s.
+    """
+
+    def __init__(self, rate: float, max_increment=None, max_offset: float = 0.5,
+                 offset: float = 0.0):
+        super().__init__()
+        self.rate = float(rate)
+        limit = np.asarray(wp.VELOCITY_LIMIT, dtype=float) / self.rate
+        self.max_increment = limit if max_increment is None else np.asarray(max_increment, float)
+        self.max_offset = float(max_offset)
+        self._action = self.DeclareVectorInputPort("increment", 7)
+        self._xd = self.DeclareDiscreteState(7)
+        self.DeclarePeriodicDiscreteUpdateEvent(1.0 / self.rate, float(offset), self._update)
+        self.DeclareVectorOutputPort("desired_state", BasicVector(14), self._calc_state,
+                                     prerequisites_of_calc={self.xd_ticket()})
+
+    def _update(self, context, discrete_state):
+        dq = context.get_discrete_state(self._xd).get_value()
+        a = np.clip(np.nan_to_num(self._action.Eval(context)), -1.0, 1.0)
+        discrete_state.set_value(self._xd, np.clip(dq + a * self.max_increment,
+                                                   -self.max_offset, self.max_offset))
+
+    def _calc_state(self, context, output):
+        output.SetFromVector(np.r_[context.get_discrete_state(self._xd).get_value(),
+                                   np.zeros(7)])
 
 
 class StepObservation(LeafSystem):

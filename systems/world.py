@@ -3,9 +3,10 @@
 Simulation recipe (docs/design.md): a continuous plant (``time_step = 0``), point
 contact with Hunt-Crossley dissipation, stiction tolerance 1e-2 m/s, integrated by error-controlled
 RK3 with accuracy 1e-4 and a maximum step of 2 ms. These are the defaults of
-:class:`WorldConfig`; scenario YAML files may override them. With ``flight_accuracy`` (the default
-scenario: 1e-3) the accuracy is relaxed to it while nothing can touch the ball
-(:class:`ContactAccuracy`); every contact keeps the recipe's.
+:class:`WorldConfig`; scenario YAML files may override them. With ``flight_accuracy`` (default
+1e-3, as in the default scenario; 0 keeps the recipe's accuracy throughout) the accuracy is relaxed
+to it while nothing can touch the ball (:class:`ContactAccuracy`); every contact keeps the
+recipe's.
 """
 
 
@@ -50,12 +51,16 @@ class WorldConfig:
     models: ModelFiles = field(default_factory=ModelFiles)
     with_robot: bool = True
     # > 0: the integrator's accuracy while nothing can touch the ball (ContactAccuracy); the
-    # simulator's own accuracy applies near every contact. 0: the simulator's accuracy always.
-    flight_accuracy: float = 0.0
+    # simulator's own accuracy applies near every contact. 0: the simulator's accuracy always
+    # (the recipe: RECIPE_FLIGHT_ACCURACY).
+    flight_accuracy: float = 1e-3
     # A second WAM at the other end of the table (the rally, docs/rally.md): the first one's
     # model and mount turned a half-turn about the vertical axis through the table centre.
     with_second_robot: bool = False
 
+
+#: ``WorldConfig.flight_accuracy`` of the simulation recipe itself: one accuracy throughout.
+RECIPE_FLIGHT_ACCURACY = 0.0
 
 SECOND_ROBOT_PREFIX = "b"  # the second robot's model instance is ``b::<the robot's model>``
 
@@ -145,31 +150,47 @@ def set_ball_state(world: World, plant_context, launch_state) -> None:
         plant_context, body, SpatialVelocity(w=list(launch_state[6:9]), v=list(launch_state[3:6])))
 
 
-def make_simulator(diagram, config: WorldConfig) -> Simulator:
+def find_plant(diagram):
+    """The subsystem named ``plant`` of ``diagram`` or, depth first, of a diagram inside it (a
+    station nests the plant)."""
+    from pydrake.systems.framework import Diagram
+
+    if diagram.HasSubsystemNamed("plant"):
+        return diagram.GetSubsystemByName("plant")
+    for system in diagram.GetSystems():
+        if isinstance(system, Diagram):
+            found = find_plant(system)
+            if found is not None:
+                return found
+    return None
+
+
+def make_simulator(diagram, config: WorldConfig, plant=None) -> Simulator:
     """A simulator of ``diagram`` at ``config.simulator``; with ``config.flight_accuracy`` > 0
-    also the :class:`ContactAccuracy` monitor (the diagram's plant must be named ``plant``)."""
-    return simulator_and_schedule(diagram, config)[0]
+    also the :class:`ContactAccuracy` monitor of ``plant`` (default: :func:`find_plant`)."""
+    return simulator_and_schedule(diagram, config, plant)[0]
 
 
-def simulator_and_schedule(diagram, config: WorldConfig):
+def simulator_and_schedule(diagram, config: WorldConfig, plant=None):
     """:func:`make_simulator` and its monitor's :class:`ContactAccuracy` (None without one), for
     whoever also advances in segments (:func:`advance_in_segments`) with the same schedule."""
     from pydrake.systems.analysis import ApplySimulatorConfig
 
     simulator = Simulator(diagram)
     ApplySimulatorConfig(config.simulator, simulator)
-    schedule = contact_accuracy(simulator, diagram, config)
+    schedule = contact_accuracy(simulator, diagram, config, plant)
     if schedule is not None:
         simulator.set_monitor(schedule)
     return simulator, schedule
 
 
-def contact_accuracy(simulator: Simulator, diagram, config: WorldConfig):
+def contact_accuracy(simulator: Simulator, diagram, config: WorldConfig, plant=None):
     """The :class:`ContactAccuracy` schedule of ``config`` for ``simulator`` (None when
-    ``config.flight_accuracy`` is 0)."""
+    ``config.flight_accuracy`` is 0); ``plant``: as :func:`make_simulator`'s."""
     if config.flight_accuracy <= 0.0:
         return None
-    return ContactAccuracy(simulator, diagram, config.simulator.accuracy, config.flight_accuracy)
+    return ContactAccuracy(simulator, diagram, config.simulator.accuracy, config.flight_accuracy,
+                           plant=plant)
 
 
 def advance_in_segments(simulator: Simulator, schedule, end: float, period: float):
@@ -234,12 +255,12 @@ class ContactAccuracy:
     covers the time to the next decision plus a step."""
 
     def __init__(self, simulator: Simulator, diagram, contact: float, flight: float,
-                 horizon: float = 0.01):
+                 horizon: float = 0.01, plant=None):
         from tt_drake.constants import BALL, NET, TABLE
         from tt_drake.wam_params import RACKET_CENTER_FRAME
 
         self._simulator = simulator
-        self._plant = plant = diagram.GetSubsystemByName("plant")
+        self._plant = plant = plant or find_plant(diagram)
         ball = plant.GetBodyByName("ball")
         self._ball = ball.model_instance()
         self._accuracy = (float(contact), float(flight))

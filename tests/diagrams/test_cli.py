@@ -109,12 +109,14 @@ def _subparsers():
 
 
 def test_option_names_are_the_registries_names():
-    from tt_drake.diagrams.cli import CONFIGURATION_NAMES, EXECUTOR_NAMES, PLAYER_NAMES
-    from tt_drake.diagrams.episodes import PLAYERS
+    from tt_drake.diagrams.cli import CONFIGURATION_NAMES, EXECUTOR_NAMES
     from tt_drake.diagrams.parallel import EXECUTORS
+    from tt_drake.diagrams.players import player_names
     from tt_drake.systems.hitting_configuration import SOURCES
 
-    assert PLAYER_NAMES == tuple(PLAYERS)
+    parser, commands = _subparsers()
+    (player,) = [a for a in commands["serve"]._actions if a.dest == "player"]
+    assert tuple(player.choices) == player_names()[:4] == ("idle", "analytical", "momp", "crkr")
     assert CONFIGURATION_NAMES == tuple(SOURCES)
     assert EXECUTOR_NAMES == tuple(EXECUTORS)
 

@@ -17,7 +17,8 @@ TICK = 1.0 / 250
 
 
 def _ball_world(perception: str):
-    scenario = Scenario(world=WorldConfig(with_robot=False), perception=perception)
+    scenario = Scenario(world=WorldConfig(with_robot=False, flight_accuracy=0.0),
+                        perception=perception)
     builder = DiagramBuilder()
     world = add_world(builder, scenario.world)
     add_aerodynamics(builder, world, scenario.aerodynamics)

@@ -21,7 +21,7 @@ def _accuracy_after(world, launch, duration: float) -> float:
 
 def test_make_simulator_attaches_the_schedule_only_when_asked(scheduled):
     assert scheduled.simulator.get_monitor() is not None
-    plain = BallOnlyWorld(config=WorldConfig(with_robot=False))
+    plain = BallOnlyWorld(config=WorldConfig(with_robot=False, flight_accuracy=0.0))
     assert plain.simulator.get_monitor() is None
 
 
@@ -35,7 +35,7 @@ def test_the_episodes_schedule_is_the_simulators_monitor():
     assert isinstance(schedule, ContactAccuracy) and schedule._root is None
     simulator.AdvanceTo(0.01)  # the monitor runs after each step: it binds the schedule
     assert schedule._root is not None
-    plain = WorldConfig(with_robot=False)
+    plain = WorldConfig(with_robot=False, flight_accuracy=0.0)
     simulator, schedule = simulator_and_schedule(world.diagram, plain)
     assert schedule is None and simulator.get_monitor() is None
 
@@ -75,7 +75,7 @@ def test_the_30_cm_bounce_is_the_recipes_to_the_micrometre():
         i = int(np.argmin(p[:, 2]))
         return float(p[i:, 2].max())
 
-    recipe = rebound(WorldConfig(with_robot=False))
+    recipe = rebound(WorldConfig(with_robot=False, flight_accuracy=0.0))
     scheduled = rebound(WorldConfig(with_robot=False, flight_accuracy=1e-3))
     assert recipe - TABLE.surface_z - BALL.radius == pytest.approx(0.23, abs=0.01)
     assert scheduled == pytest.approx(recipe, abs=1e-6)
@@ -114,7 +114,7 @@ def test_advancing_in_segments_keeps_the_recipes_bounce_and_the_monitor():
     is back afterwards."""
     from tt_drake.systems.world import advance_in_segments, contact_accuracy
 
-    recipe = BallOnlyWorld(config=WorldConfig(with_robot=False))
+    recipe = BallOnlyWorld(config=WorldConfig(with_robot=False, flight_accuracy=0.0))
     config = WorldConfig(with_robot=False, flight_accuracy=1e-3)
     world = BallOnlyWorld(config=config)
     schedule = contact_accuracy(world.simulator, world.diagram, config)

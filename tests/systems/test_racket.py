@@ -16,7 +16,7 @@ class ArmWorld:
 
     def __init__(self, config: WorldConfig | None = None):
         builder = DiagramBuilder()
-        self.config = config or WorldConfig()
+        self.config = config or WorldConfig(flight_accuracy=0.0)
         self.world = world = add_world(builder, self.config)
         plant = world.plant
         add_aerodynamics(builder, world)

@@ -1,0 +1,50 @@
+"""The players' registry: the built-in players by name, references resolved at first use, the
+artefact check before any simulation, and names refused."""
+
+import pytest
+
+from tt_drake.diagrams import episodes
+from tt_drake.diagrams.players import (
+    PlayerError,
+    check_player,
+    player_function,
+    player_names,
+    plays_learned_artefacts,
+    register_player,
+    unregister_player,
+)
+from tt_drake.diagrams.scenario import load_scenario
+
+
+def test_the_built_in_players_resolve_to_their_functions():
+    assert player_names()[:4] == ("idle", "analytical", "momp", "crkr")
+    assert player_function("momp") is episodes.add_momp_player
+    assert player_function("analytical") is episodes.add_analytical_player
+    assert player_function(episodes.add_idle_player) is episodes.add_idle_player  # a function
+    assert [plays_learned_artefacts(n) for n in ("idle", "analytical", "momp", "crkr")] == [
+        False, False, True, True]
+    assert not plays_learned_artefacts(episodes.add_idle_player)
+
+
+def test_a_learned_player_without_its_artefacts_is_refused_before_any_simulation():
+    scenario = load_scenario()  # no library named
+    with pytest.raises(PlayerError, match="the momp player needs --library FILE"):
+        check_player("momp", scenario)
+    check_player("analytical", scenario)  # nothing to check
+    with pytest.raises(PlayerError, match="unknown player 'nobody'"):
+        check_player("nobody", scenario)
+
+
+def test_a_registered_player_can_be_removed_again():
+    register_player("for_a_moment", episodes.add_idle_player)
+    assert player_names()[-1] == "for_a_moment"
+    unregister_player("for_a_moment")
+    assert "for_a_moment" not in player_names()
+    with pytest.raises(PlayerError, match="unknown player 'for_a_moment'"):
+        unregister_player("for_a_moment")
+
+
+@pytest.mark.parametrize("name", ["", " padded", None])
+def test_a_player_needs_a_name(name):
+    with pytest.raises(PlayerError, match="a player's name must be a non-empty word"):
+        register_player(name, episodes.add_idle_player)

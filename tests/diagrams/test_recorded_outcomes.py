@@ -1,0 +1,45 @@
+"""Fixed serves and rallies of every player give the recorded outcomes bit for bit.
+
+The records (tests/data/recorded_outcomes.json, written by tests/data/make_recorded_outcomes.py)
+hold each episode's launch, the referee's verdict, the landing and hit time as exact floats and
+when the episode ended: any change to the physics, the seeds, the players or how a diagram is
+built and reset that moves a landing by one bit fails here.
+"""
+
+import pytest
+
+from tests.data.make_recorded_outcomes import (
+    RALLY_PLAYERS,
+    SERVE_PLAYERS,
+    SERVES,
+    load_recorded,
+    play_rally,
+    play_serves,
+    rally_case_key,
+    serve_case_key,
+)
+
+RECORDED = load_recorded()
+
+
+def test_the_records_cover_every_case_and_pin_returns_and_faults():
+    serves = RECORDED["serves"]
+    assert set(serves) == {serve_case_key(label, d) for label, _, _ in SERVE_PLAYERS
+                           for d in SERVES}
+    assert set(RECORDED["rallies"]) == {rally_case_key(p) for p in RALLY_PLAYERS}
+    outcomes = {e["outcome"] for episodes in serves.values() for e in episodes}
+    assert outcomes == {"returned", "missed", "fault"}
+    for rally in RECORDED["rallies"].values():  # each side returned at least once
+        assert {e["player"] for e in rally["exchanges"]} == {0, 1}
+
+
+@pytest.mark.parametrize("distribution", list(SERVES))
+@pytest.mark.parametrize("label", [label for label, _, _ in SERVE_PLAYERS])
+def test_fixed_serves_give_the_recorded_outcomes_bit_for_bit(label, distribution):
+    assert play_serves(label, distribution) == RECORDED["serves"][
+        serve_case_key(label, distribution)]
+
+
+@pytest.mark.parametrize("players", RALLY_PLAYERS, ids=rally_case_key)
+def test_fixed_rallies_give_the_recorded_exchanges_bit_for_bit(players):
+    assert play_rally(players) == RECORDED["rallies"][rally_case_key(players)]

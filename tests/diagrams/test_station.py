@@ -1,0 +1,87 @@
+"""The station: its named ports, the arm following the desired state given at its inputs, the
+ball seen from robot B through the mirror, and the referee's reward port."""
+
+import numpy as np
+import pytest
+from pydrake.systems.analysis import Simulator
+
+from tt_drake.constants import BALL, TABLE
+from tt_drake.diagrams.rally import rally_scenario
+from tt_drake.diagrams.scenario import load_scenario
+from tt_drake.diagrams.station import awaiting_posture, build_station, make_station
+from tt_drake.rally_rules import mirror_matrix13
+from tt_drake.systems.world import set_ball_state
+from tt_drake.wam_params import AWAITING
+
+ARM = ("desired_state", "desired_acceleration", "state", "torque", "acceleration")
+
+
+def _ports(diagram):
+    inputs = {diagram.get_input_port(i).get_name() for i in range(diagram.num_input_ports())}
+    outputs = {diagram.get_output_port(i).get_name() for i in range(diagram.num_output_ports())}
+    return inputs, outputs
+
+
+def test_one_and_two_robot_stations_export_the_documented_ports():
+    inputs, outputs = _ports(make_station(load_scenario(), robots=1))
+    assert inputs == {"wam_A_desired_state", "wam_A_desired_acceleration"}
+    assert outputs == {"ball_state", "contact_results", "outcome", "reward", "wam_A_state",
+                       "wam_A_torque", "wam_A_acceleration"}
+    inputs, outputs = _ports(make_station(rally_scenario(load_scenario()), robots=2))
+    assert inputs == {f"wam_{s}_{p}" for s in "AB" for p in ARM[:2]}
+    assert outputs == ({"ball_state", "ball_state_B", "contact_results", "rally"}
+                       | {f"wam_{s}_{p}" for s in "AB" for p in ARM[2:]})
+    with pytest.raises(ValueError, match="0, 1 or 2 robots"):
+        make_station(load_scenario(), robots=3)
+
+
+def test_the_arm_settles_at_the_desired_state_given_to_the_station():
+    station = build_station(load_scenario(), robots=1, end_when_decided=False)
+    diagram = station.diagram
+    simulator = Simulator(diagram)
+    context = simulator.get_mutable_context()
+    awaiting_posture(station.world, context)
+    target = np.asarray(AWAITING) + np.array([0.2, -0.1, 0.1, 0.2, -0.1, 0.1, 0.1])
+    diagram.GetInputPort("wam_A_desired_state").FixValue(context, np.r_[target, np.zeros(7)])
+    diagram.GetInputPort("wam_A_desired_acceleration").FixValue(context, np.zeros(7))
+    # The ball at rest on the far half of the table: nothing but the arm moves.
+    set_ball_state(station.world, station.world.plant.GetMyMutableContextFromRoot(context),
+                   [0.0, 1.0, TABLE.surface_z + BALL.radius, 0, 0, 0, 0, 0, 0])
+    simulator.AdvanceTo(1.5)
+    assert context.get_time() == 1.5
+    x = diagram.GetOutputPort("wam_A_state").Eval(context)
+    np.testing.assert_allclose(x[:7], target, atol=1e-3)
+    np.testing.assert_allclose(x[7:], 0.0, atol=1e-2)
+    # At rest, the commanded torques hold the arm against gravity only: not all zero.
+    assert np.linalg.norm(diagram.GetOutputPort("wam_A_torque").Eval(context)) > 1.0
+    outcome = diagram.GetOutputPort("outcome").Eval(context)
+    assert outcome.outcome == "missed" and not outcome.hit
+    assert diagram.GetOutputPort("reward").Eval(context)[0] == outcome.reward == 0.0
+
+
+def test_robot_b_sees_the_ball_through_the_mirror():
+    station = build_station(rally_scenario(load_scenario()), robots=2)
+    context = station.diagram.CreateDefaultContext()
+    launch = [0.3, -0.8, 1.1, 0.5, 4.0, 1.0, 10.0, -20.0, 30.0]
+    set_ball_state(station.world, station.world.plant.GetMyMutableContextFromRoot(context),
+                   launch)
+    ball = station.diagram.GetOutputPort("ball_state").Eval(context)
+    np.testing.assert_allclose(ball[4:7], launch[:3])  # p, in the world frame
+    np.testing.assert_allclose(station.diagram.GetOutputPort("ball_state_B").Eval(context),
+                               mirror_matrix13() @ ball, atol=1e-15)
+
+
+def test_the_station_camera_frames_a_resting_ball_where_it_lies():
+    scenario = load_scenario()
+    scenario.camera.sigma = 0.0  # a noiseless camera sees the true position
+    station = build_station(scenario, robots=0, end_when_decided=False, camera=True)
+    assert "camera_frames" not in _ports(make_station(scenario))[1]  # off by default
+    simulator = Simulator(station.diagram)
+    context = simulator.get_mutable_context()
+    rest = [0.3, 1.0, TABLE.surface_z + BALL.radius]
+    set_ball_state(station.world, station.world.plant.GetMyMutableContextFromRoot(context),
+                   [*rest, 0, 0, 0, 0, 0, 0])
+    simulator.AdvanceTo(0.1)  # frames at 0, 1/60, ..., 5/60 s
+    frame = station.diagram.GetOutputPort("camera_frames").Eval(context)
+    np.testing.assert_allclose(frame[:3], rest, atol=1e-6)  # the ball settles on the table
+    assert frame[3] == pytest.approx(5 / 60, abs=1e-12) and frame[4] == 1.0
