@@ -10,8 +10,9 @@ with; :mod:`tt_drake.spin_stroke`).
 - ``competitive``: each stroke draws its aim (:class:`CompetitiveAim`): the target uniform over
   a box of the opponent's half, the flight time uniform over a range (pace: 0.45 s is a drive at
   ~6 m/s, 0.8 s a slow ball), and the stroke's kind, a topspin drive, a backspin push or a block
-  that takes the spin off the ball, with the given probabilities. Stroke k of a rally with seed s draws from its own
-  generator, keyed by (s, k), so a rally replays exactly and its strokes are independent.
+  that takes the spin off the ball, with the given probabilities. Stroke k of a rally with seed
+  s draws from its own generator, keyed by (s, k), so a rally replays exactly and its strokes
+  are independent.
 """
 
 from dataclasses import dataclass, field
