@@ -473,11 +473,15 @@ class AnalyticalPlayer(StagePlanPlayer):
         """The episode's seed, from which the per-stroke aims are drawn (class docstring)."""
         context.get_mutable_numeric_parameter(self._seed_index).SetAtIndex(0, float(seed))
 
+    def seed(self, context) -> int:
+        """The episode's seed set by :meth:`set_seed` (0 if none was)."""
+        return int(context.get_numeric_parameter(self._seed_index).GetAtIndex(0))
+
     def _stroke(self, context, old: _PlayerState, p_hit, v_hit, t_hit, spin):
         """The planner's stroke for the prediction, aimed for stroke ``old.strokes`` when the
         player has ``aims`` (falling back to the planner's own aim)."""
         if self.aims is not None:
-            seed = int(context.get_numeric_parameter(self._seed_index).GetAtIndex(0))
+            seed = self.seed(context)
             key = (seed, old.strokes)
             if key not in self._aimed:
                 if len(self._aimed) > 256:  # derived planners, cheap to make again

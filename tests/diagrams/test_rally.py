@@ -200,3 +200,32 @@ def test_rallies_on_two_workers_are_the_serial_rallies():
         return [r | {"wall_time": 0} for r in data["rallies"]]
 
     assert rallies(2) == rallies(1)
+
+
+def test_a_competitive_rally_plays_each_strokes_drawn_aim_and_replays():
+    """With ``rally.aim: competitive`` each analytical stroke lands near its drawn target and
+    leaves with its drawn topspin (or, when the arm cannot make it, the cooperative aim's), and
+    the same seed gives the same rally."""
+    from tt_drake.diagrams.rally import RallyDiagram, rally_scenario
+    from tt_drake.diagrams.scenario import load_scenario
+    from tt_drake.rally_aim import draw_aim
+    from tt_drake.rally_stats import topspin
+
+    scenario = load_scenario()
+    scenario.rally.max_exchanges = 3
+    scenario.rally.aim = "competitive"
+    diagram = RallyDiagram(rally_scenario(scenario), ("analytical", "analytical"))
+    rally = diagram.run(21)
+    assert rally.length >= 2
+    seeds = [p.seed(p.GetMyContextFromRoot(diagram.context)) for p in diagram.player_systems]
+    assert len(set(seeds)) == 2  # each side draws its own aims
+    aimed = 0
+    for k, exchange in enumerate(rally.exchanges):
+        stroke = k // 2  # the sides alternate: a side's k-th exchange is its stroke k // 2
+        aim = draw_aim(scenario.rally.competitive, seeds[exchange.player], stroke)
+        if np.hypot(*(np.asarray(exchange.landing) - (aim.target_x, aim.target_y))) < 0.15:
+            aimed += 1
+            assert topspin(exchange.outgoing) == pytest.approx(aim.topspin, abs=12.0)
+    assert aimed >= 1
+    again = RallyDiagram(rally_scenario(scenario), ("analytical", "analytical")).run(21)
+    assert again.as_dict() | {"wall_time": 0} == rally.as_dict() | {"wall_time": 0}
