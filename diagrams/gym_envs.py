@@ -379,13 +379,19 @@ def _setpoint_player(builder, world, controller, scenario: Scenario, rate: float
     builder.ExportInput(player.GetInputPort("increment"), "actions")
     add_servo_hold(builder, (player.GetOutputPort("desired_state"),
                              player.GetOutputPort("desired_acceleration")), controller)
+    add_observations(builder, world, estimator)
+    return seeded
+
+
+def add_observations(builder, world, estimator) -> None:
+    """The step environment's ``observations`` output (:class:`StepObservation`): the arm's
+    measured state and the estimator's ball state and status."""
     observations = builder.AddNamedSystem("observations", StepObservation())
     builder.Connect(world.plant.get_state_output_port(world.robot),
                     observations.get_input_port(0))
     builder.Connect(estimator.GetOutputPort("state"), observations.get_input_port(1))
     builder.Connect(estimator.GetOutputPort("status"), observations.get_input_port(2))
     builder.ExportOutput(observations.get_output_port(), "observations")
-    return seeded
 
 
 def offset_player(builder, world, controller, scenario: Scenario, player: str,
@@ -411,12 +417,7 @@ def offset_player(builder, world, controller, scenario: Scenario, player: str,
     else:
         more, estimator = add_perception(builder, world, scenario)
         seeded = seeded + more
-    observations = builder.AddNamedSystem("observations", StepObservation())
-    builder.Connect(world.plant.get_state_output_port(world.robot),
-                    observations.get_input_port(0))
-    builder.Connect(estimator.GetOutputPort("state"), observations.get_input_port(1))
-    builder.Connect(estimator.GetOutputPort("status"), observations.get_input_port(2))
-    builder.ExportOutput(observations.get_output_port(), "observations")
+    add_observations(builder, world, estimator)
     return seeded
 
 

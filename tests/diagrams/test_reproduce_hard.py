@@ -111,8 +111,9 @@ def _hard_run(tmp_path, monkeypatch, protocol="hard"):
 
     def strategy_returns(path, scenario, strategy, indices, seed, desc=""):
         recorder.strategies.append({"path": path, "strategy": strategy.name,
-                                    "perception": scenario.perception, "indices": indices,
-                                    "seed": seed})
+                                    "perception": scenario.perception,
+                                    "noise_stream": scenario.camera.noise_stream,
+                                    "indices": indices, "seed": seed})
         return [False] * len(indices)  # the other strategies return nothing more
 
     monkeypatch.setattr(run, "strategy_returns", strategy_returns)
@@ -161,7 +162,14 @@ def test_the_hard_player_plays_the_teachers_ik_and_is_judged_on_the_same_serves_
     assert [(s["strategy"], s["indices"], s["path"].parent.name)
             for s in recorder.strategies[:len(STRATEGIES) - 1]] == [
         (s.name, unreturned, "spin") for s in STRATEGIES[1:]]
-    assert all(s["perception"] == "oracle" for s in recorder.strategies)
+    # each strategy sees the serves as it says: the oracle, or the camera through a noise
+    # stream of its own (never the evaluated players' stream 0)
+    by_name = {s.name: s for s in STRATEGIES}
+    assert all((s["perception"], s["noise_stream"]) == (by_name[s["strategy"]].perception,
+                                                        by_name[s["strategy"]].noise_stream)
+               for s in recorder.strategies)
+    assert all(s["perception"] == "oracle" or s["noise_stream"] > 0
+               for s in recorder.strategies)
     # the stage results say which player played (the report's commands name it)
     assert gamma1["configuration"] == final["configuration"] == "analytical"
     rows = table_rows({"gamma1": gamma1, "final": final})
