@@ -64,6 +64,26 @@ def _unit(normal) -> np.ndarray:
     return n / norm
 
 
+def rolling_spin_change(normal, dv_t, radius: float = BALL.radius) -> np.ndarray:
+    """The spin a rolling exit adds for the tangential velocity change ``dv_t`` across the face
+    with unit ``normal``: Delta omega = (m R^2 / I) (r x Delta v_t) / R^2 with r = -R n
+    (equation (3) with J_t = m Delta v_t)."""
+    n = np.asarray(normal, dtype=float)
+    return HOLLOW_BALL_RATIO * np.cross(-radius * n, np.asarray(dv_t, dtype=float)) / radius**2
+
+
+def topspin(state) -> float:
+    """The spin component (rad/s) of a ball state (p, v, omega) that turns the ball's top toward
+    its horizontal direction of travel d: omega . (z x d); positive for topspin, negative for
+    backspin."""
+    s = np.asarray(state, dtype=float).reshape(-1)
+    horizontal = np.array([s[3], s[4], 0.0])
+    norm = float(np.linalg.norm(horizontal))
+    if norm < 1e-9:
+        raise ValueError("a return must travel horizontally")
+    return float(s[6:9] @ np.cross((0.0, 0.0, 1.0), horizontal / norm))
+
+
 def racket_impact(v, omega, normal, v_racket, restitution: float, mu: float,
                   radius: float = BALL.radius) -> Impact:
     """The ball's velocity and spin after the face, by equations (1)-(3) of the module
@@ -146,5 +166,4 @@ def racket_for_spin_return(v, omega, v_out, normal, mu: float, restitution_of,
     contact = v + np.cross(w, r)
     v_racket = (float(n @ v) + dv_n / (1.0 + e)) * n + (contact - float(n @ contact) * n) \
         + (1.0 + HOLLOW_BALL_RATIO) * dv_t
-    omega_out = w + HOLLOW_BALL_RATIO * np.cross(r, dv_t) / radius**2
-    return v_racket, e, omega_out
+    return v_racket, e, w + rolling_spin_change(n, dv_t, radius)

@@ -182,6 +182,14 @@ def net_clearance(model: BallModel, p, v, spin=(0.0, 0.0, 0.0)) -> float:
     return -math.inf
 
 
+def aim_rank(clearance: float, racket_velocity, min_clearance: float) -> tuple:
+    """The sort key of an aim: those clearing the net by ``min_clearance`` first, by increasing
+    racket speed, then the others by decreasing clearance."""
+    if clearance >= min_clearance:
+        return (0, float(np.linalg.norm(racket_velocity)))
+    return (1, -clearance)
+
+
 def aim_candidates(p_hit, v_in, target=(TARGET.x, TARGET.y), model: BallModel | None = None,
                    flight_times=FLIGHT_TIMES, min_clearance: float = 0.05,
                    spin=(0.0, 0.0, 0.0)) -> list[ReturnAim]:
@@ -195,8 +203,7 @@ def aim_candidates(p_hit, v_in, target=(TARGET.x, TARGET.y), model: BallModel | 
     for t in flight_times:
         v_out = solve_outgoing_velocity(p_hit, goal, t, model, spin=spin)
         clearance = net_clearance(model, p_hit, v_out, spin)
-        speed = float(np.linalg.norm(racket_for_return(v_in, v_out, spin).velocity))
-        key = (0, speed) if clearance >= min_clearance else (1, -clearance)
+        key = aim_rank(clearance, racket_for_return(v_in, v_out, spin).velocity, min_clearance)
         ranked.append((key, ReturnAim(v_out, float(t), clearance, goal[:2].copy())))
     ranked.sort(key=lambda item: item[0])
     return [aim for _, aim in ranked]

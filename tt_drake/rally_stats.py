@@ -27,22 +27,9 @@ import numpy as np
 
 from tt_drake.ball_model import BallModel
 from tt_drake.data import ball_states_path
+from tt_drake.racket_impact import topspin
 from tt_drake.rally_rules import to_side
 from tt_drake.serves import load_ball_states
-
-#: The world's vertical axis.
-UP = np.array([0.0, 0.0, 1.0])
-
-
-def topspin(state) -> float:
-    """The spin component (rad/s) that turns the ball's top toward its horizontal direction of
-    travel d: omega . (z x d); positive for topspin, negative for backspin."""
-    s = np.asarray(state, dtype=float).reshape(-1)
-    horizontal = np.array([s[3], s[4], 0.0])
-    norm = float(np.linalg.norm(horizontal))
-    if norm < 1e-9:
-        raise ValueError("a return must travel horizontally")
-    return float(s[6:9] @ np.cross(UP, horizontal / norm))
 
 
 def from_returners_end(state) -> np.ndarray:

@@ -13,7 +13,7 @@ topspin; opening it (alpha < 0) adds backspin.
 
 :func:`spin_stroke` finds, for a landing target and flight time, the outgoing velocity and the
 tilt whose outgoing spin has a wanted topspin component s* = omega_out . (z x d) (d: the
-return's horizontal direction, :func:`tt_drake.rally_stats.topspin`). The outgoing spin bends
+return's horizontal direction, :func:`tt_drake.racket_impact.topspin`). The outgoing spin bends
 the flight (Magnus), so the aim and the spin are solved together by fixed point: aim with the
 spin guessed, then the tilt by bisection on s(alpha) = s* within the friction cone (|tan alpha|
 <= ``cone`` mu, a margin so that errors in the strike still leave the ball rolling), then aim
@@ -28,15 +28,20 @@ import numpy as np
 
 from tt_drake.ball_model import BallModel
 from tt_drake.constants import BALL, TABLE
-from tt_drake.racket_impact import brushed_normal, racket_for_spin_return
+from tt_drake.racket_impact import (
+    brushed_normal,
+    racket_for_spin_return,
+    rolling_spin_change,
+    topspin,
+)
 from tt_drake.racket_law import (
     FLIGHT_TIMES,
     RacketState,
+    aim_rank,
     net_clearance,
     racket_restitution,
     solve_outgoing_velocity,
 )
-from tt_drake.rally_stats import topspin
 
 #: The rubber's friction with the ball in the Drake world (docs/constants.md).
 RACKET_MU = 0.9
@@ -64,8 +69,7 @@ def _spin_after(v_in, spin_in, v_out, tilt: float) -> np.ndarray:
     Delta v_t."""
     n = brushed_normal(v_in, v_out, UP, tilt)
     dv = np.asarray(v_out) - np.asarray(v_in)
-    dv_t = dv - float(n @ dv) * n
-    return np.asarray(spin_in, dtype=float) - 1.5 / BALL.radius * np.cross(n, dv_t)
+    return np.asarray(spin_in, dtype=float) + rolling_spin_change(n, dv - float(n @ dv) * n)
 
 
 def _tilt_for(v_in, spin_in, v_out, wanted: float, max_tilt: float) -> float:
@@ -135,9 +139,7 @@ def spin_stroke_candidates(p_hit, v_in, spin_in, target, wanted_topspin: float,
             stroke = spin_stroke(p_hit, v_in, spin_in, target, t, wanted_topspin, model)
         except ValueError:
             continue
-        speed = float(np.linalg.norm(stroke.racket.velocity))
-        key = ((0, speed) if stroke.net_clearance >= min_clearance
-               else (1, -stroke.net_clearance))
-        ranked.append((key, stroke))
+        ranked.append((aim_rank(stroke.net_clearance, stroke.racket.velocity, min_clearance),
+                       stroke))
     ranked.sort(key=lambda item: item[0])
     return [stroke for _, stroke in ranked]

@@ -208,8 +208,8 @@ def test_a_competitive_rally_plays_each_strokes_drawn_aim_and_replays():
     the same seed gives the same rally."""
     from tt_drake.diagrams.rally import RallyDiagram, rally_scenario
     from tt_drake.diagrams.scenario import load_scenario
+    from tt_drake.racket_impact import topspin
     from tt_drake.rally_aim import draw_aim
-    from tt_drake.rally_stats import topspin
 
     scenario = load_scenario()
     scenario.rally.max_exchanges = 3

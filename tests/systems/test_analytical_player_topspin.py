@@ -6,9 +6,8 @@ import numpy as np
 import pytest
 
 from tt_drake.ball_model import BallModel
-from tt_drake.racket_impact import racket_impact
+from tt_drake.racket_impact import racket_impact, topspin
 from tt_drake.racket_law import racket_restitution
-from tt_drake.rally_stats import topspin
 from tt_drake.spin_stroke import RACKET_MU
 from tt_drake.systems.analytical_player import PlannerConfig, StrokePlanner
 

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from tt_drake.ball_model import BallModel
-from tt_drake.rally_stats import from_returners_end, outgoing_figures, topspin
+from tt_drake.racket_impact import topspin
+from tt_drake.rally_stats import from_returners_end, outgoing_figures
 
 # A drive from the robot's end: 1.5 m behind the net's plane, 0.25 m above the table, 6 m/s.
 DRIVE = np.array([0.1, -1.5, 1.01, -0.2, 5.8, 1.4, -80.0, 5.0, 10.0])

@@ -6,9 +6,8 @@ import pytest
 
 from tt_drake.ball_model import BallModel
 from tt_drake.constants import BALL, TABLE
-from tt_drake.racket_impact import racket_impact
+from tt_drake.racket_impact import racket_impact, topspin
 from tt_drake.racket_law import racket_for_return, solve_outgoing_velocity
-from tt_drake.rally_stats import topspin
 from tt_drake.spin_stroke import RACKET_MU, spin_stroke, spin_stroke_candidates
 
 P_HIT = np.array([0.2, -1.75, 0.95])
