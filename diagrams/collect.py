@@ -22,6 +22,7 @@ from tt_drake.artefacts import ArtefactError, load_artefact, save_artefact
 from tt_drake.diagrams.episodes import ServeDiagram, check_run, episode_seed
 from tt_drake.diagrams.parallel import run_episodes
 from tt_drake.diagrams.scenario import Scenario
+from tt_drake.errors import BadInputError
 from tt_drake.outputs import claim_folder
 from tt_drake.stages import STAGES
 
@@ -37,7 +38,7 @@ TRAJECTORY_COLUMNS = ["t", "stage"] + [f"{name}{j}" for name in ("q", "qd", "qdd
                                        for j in range(1, 8)]
 
 
-class DatasetError(ValueError):
+class DatasetError(ValueError, BadInputError):
     """A dataset folder that cannot be used (another run's data, unreadable, empty)."""
 
 

@@ -36,6 +36,7 @@ from tt_drake.diagrams.station import (
     reset_episode,
     station_ports,
 )
+from tt_drake.errors import BadInputError
 from tt_drake.referee_rules import Outcome
 from tt_drake.seeds import episode_seed  # noqa: F401  (re-exported: runners import it here)
 from tt_drake.systems.wam import SERVO_HOLD, add_servo_hold, hold_first_setpoint
@@ -602,7 +603,7 @@ class ServeDiagram:
         return log.sample_times()[:-1].copy(), log.data().T[1:].copy()
 
 
-class SeedError(ValueError):
+class SeedError(ValueError, BadInputError):
     """A base seed or serve count outside its range."""
 
 

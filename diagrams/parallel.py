@@ -17,11 +17,12 @@ from collections.abc import Callable, Iterable, Iterator
 
 from tt_drake.diagrams.episodes import EpisodeResult, ServeDiagram
 from tt_drake.diagrams.scenario import Scenario
+from tt_drake.errors import BadInputError
 
 _WORKER: dict = {}
 
 
-class ExecutorError(ValueError):
+class ExecutorError(ValueError, BadInputError):
     """An unknown executor, or one whose optional dependency is not installed."""
 
 

@@ -27,8 +27,10 @@ import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from tt_drake.errors import BadInputError
 
-class PlayerError(ValueError):
+
+class PlayerError(ValueError, BadInputError):
     """An unknown player name or a player that cannot be built."""
 
 

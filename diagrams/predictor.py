@@ -44,6 +44,7 @@ from tt_drake.camera_model import CameraConfig, CameraModel
 from tt_drake.constants import PLANES
 from tt_drake.diagrams.ball_world import BallOnlyWorld
 from tt_drake.diagrams.episodes import check_run
+from tt_drake.errors import BadInputError
 from tt_drake.estimation import EstimatorConfig, nees, run_filter
 from tt_drake.hitting_point import (
     OUTPUT_NAMES,
@@ -64,7 +65,7 @@ SIM_VERSION = 2
 AFTER_CROSSING = 0.05  # simulate this long past the model's predicted crossing (s)
 
 
-class PredictorError(ValueError):
+class PredictorError(ValueError, BadInputError):
     """A user error of the predictor commands (bad option values, unusable data)."""
 
 

@@ -69,6 +69,7 @@ from tt_drake.diagrams.ceiling import (
     strategy_scenario,
 )
 from tt_drake.diagrams.train import HARD_PROFILE, STIFF_HARD_PROFILE
+from tt_drake.errors import BadInputError
 from tt_drake.outputs import claim_folder, portable_path, write_json_atomic
 from tt_drake.provenance import run_provenance
 
@@ -77,7 +78,7 @@ STAGES = ("teacher", "predictor", "library", "crkr", "single", "gamma1", "respon
           "power", "final")
 
 
-class ReproduceError(ValueError):
+class ReproduceError(ValueError, BadInputError):
     """A run folder or setting that cannot be used."""
 
 

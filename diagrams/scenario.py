@@ -18,6 +18,7 @@ from pydrake.common.yaml import yaml_dump_typed, yaml_load_data, yaml_load_typed
 
 from tt_drake.camera_model import CameraConfig
 from tt_drake.constants import MAX_EXCHANGES
+from tt_drake.errors import BadInputError
 from tt_drake.rally_aim import AIMS
 from tt_drake.rally_rules import RallyConfig
 from tt_drake.referee_rules import RefereeConfig
@@ -106,7 +107,7 @@ class Scenario:
     rally: RallyConfig = field(default_factory=RallyConfig)
 
 
-class ScenarioError(ValueError):
+class ScenarioError(ValueError, BadInputError):
     """A scenario file is missing, malformed or has unknown or invalid fields."""
 
 

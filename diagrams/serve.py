@@ -21,6 +21,7 @@ from tt_drake.diagrams.ceiling import (
 )
 from tt_drake.diagrams.episodes import ServeDiagram, check_run, episode_seed, summarize
 from tt_drake.diagrams.scenario import Scenario, dump_scenario, resolve_model_paths
+from tt_drake.errors import BadInputError
 from tt_drake.intervals import wilson
 from tt_drake.outputs import check_writable, write_json_atomic, write_text_atomic
 from tt_drake.provenance import run_provenance
@@ -162,7 +163,7 @@ def add_returnable(data: dict, results: list, returnable: list[str | None]) -> N
         episode["returnable_by"] = by
 
 
-class CeilingFileError(ValueError):
+class CeilingFileError(ValueError, BadInputError):
     """A ``--ceiling-from`` file that is not an earlier ``--ceiling`` run of the same serves."""
 
 

@@ -53,6 +53,7 @@ from tt_drake.constants import PLANES
 from tt_drake.crkr import comfort_cost
 from tt_drake.diagrams.collect import DatasetError, load_dataset
 from tt_drake.dmp import HittingDMP
+from tt_drake.errors import BadInputError
 from tt_drake.imitation import WEAK_AMPLITUDE_RATIO, Demonstration, borrow_weak_shapes
 from tt_drake.learned_player import (
     ConfigurationModel,
@@ -79,7 +80,7 @@ CRKR_LAMBDA = 0.01
 MIN_SAMPLES = 20  # a stage with fewer samples (< 40 ms at 500 Hz) is not used as a demonstration
 
 
-class TrainError(ValueError):
+class TrainError(ValueError, BadInputError):
     """A dataset that cannot train the requested artefact."""
 
 

@@ -23,6 +23,8 @@ from pydrake.multibody.tree import ModelInstanceIndex
 from pydrake.systems.analysis import Simulator, SimulatorConfig
 from pydrake.systems.framework import DiagramBuilder, EventStatus
 
+from tt_drake.errors import BadInputError
+
 
 def default_plant_config() -> MultibodyPlantConfig:
     return MultibodyPlantConfig(time_step=0.0, contact_model="point", stiction_tolerance=1e-2)
@@ -65,7 +67,7 @@ RECIPE_FLIGHT_ACCURACY = 0.0
 SECOND_ROBOT_PREFIX = "b"  # the second robot's model instance is ``b::<the robot's model>``
 
 
-class ModelFileError(FileNotFoundError):
+class ModelFileError(FileNotFoundError, BadInputError):
     """A model file named by the scenario does not exist."""
 
 

@@ -48,6 +48,7 @@ from tt_drake.artefacts import ArtefactError, load_artefact, save_artefact
 from tt_drake.ball_model import BallModel, CompliantBounceBallModel
 from tt_drake.camera_model import CameraConfig, camera_from_dict
 from tt_drake.constants import PLANES
+from tt_drake.errors import BadInputError
 from tt_drake.estimation import EstimatorConfig, config_from_dict
 
 N_OBSERVATIONS = 4
@@ -61,7 +62,7 @@ ARTEFACT_KIND = "hitting-point-gpr"
 ARTEFACT_VERSION = 1
 
 
-class PredictorFileError(ArtefactError):
+class PredictorFileError(ArtefactError, BadInputError):
     """A saved predictor is corrupt, of another kind or does not match this code."""
 
 

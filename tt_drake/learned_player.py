@@ -37,6 +37,7 @@ import numpy as np
 from tt_drake.artefacts import ArtefactError, load_artefact, save_artefact
 from tt_drake.crkr import CrKR
 from tt_drake.dmp import HittingDMP, Trajectory
+from tt_drake.errors import BadInputError
 from tt_drake.imitation import Demonstration, imitate
 from tt_drake.momp import MotorPrimitiveLibrary
 from tt_drake.responsibility import ResponsibilityParams
@@ -344,7 +345,7 @@ _STAGE_KEYS = {PREPARATION: "preparation", FOLLOW_THROUGH: "follow_through",
                AWAITING: "awaiting"}
 
 
-class LearnedArtefactError(ArtefactError):
+class LearnedArtefactError(ArtefactError, BadInputError):
     """A learned-player artefact that is missing, corrupt, or trained for another scenario."""
 
 

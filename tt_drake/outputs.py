@@ -12,8 +12,10 @@ import os
 import tempfile
 from pathlib import Path
 
+from tt_drake.errors import BadInputError
 
-class OutputError(OSError):
+
+class OutputError(OSError, BadInputError):
     """An output path cannot be written."""
 
 

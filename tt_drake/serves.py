@@ -41,6 +41,7 @@ import numpy as np
 
 from tt_drake.ball_model import BallModel, PlaneCrossing
 from tt_drake.constants import BALL, HITTING_REGION, PLANES, TABLE
+from tt_drake.errors import BadInputError
 from tt_drake.seeds import episode_seed
 
 #: The real-ball pools: distribution prefix -> the ball-state file (:mod:`tt_drake.data`).
@@ -93,7 +94,7 @@ def default_proposal(rng: np.random.Generator, x_range=DEFAULT_X_RANGE,
 
 
 
-class ServeError(ValueError):
+class ServeError(ValueError, BadInputError):
     """A serve distribution cannot be used (unknown name, missing or malformed data file)."""
 
 

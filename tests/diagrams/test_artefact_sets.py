@@ -6,7 +6,8 @@ import shutil
 import numpy as np
 import pytest
 
-from tt_drake.diagrams.cli import ARTEFACT_SET_NAMES, _scenario, build_parser, main
+from tt_drake.diagrams.cli import build_parser, main
+from tt_drake.diagrams.commands.options import ARTEFACT_SET_NAMES, scenario_from_options
 from tt_drake.models import ARTEFACT_SETS, SHIPPED_ARTEFACTS, shipped_artefact
 
 
@@ -16,18 +17,19 @@ def test_the_cli_names_every_artefact_set():
 
 def test_the_hard_set_is_its_files_and_the_moving_goal(capsys):
     parser = build_parser()
-    learned = _scenario(parser.parse_args(["serve", "--player", "momp", "--artefacts",
-                                           "hard"])).learned
+    learned = scenario_from_options(
+        parser.parse_args(["serve", "--player", "momp", "--artefacts", "hard"])).learned
     assert (learned.library, learned.crkr, learned.predictor) == tuple(
         str(shipped_artefact(k, "hard")) for k in ("library", "crkr", "predictor"))
     assert learned.moving_goal and learned.configuration == "analytical"
     assert "learned-hard" in capsys.readouterr().err
-    learned = _scenario(parser.parse_args(["serve", "--player", "momp", "--artefacts", "hard",
-                                           "--configuration", "crkr"])).learned
+    learned = scenario_from_options(parser.parse_args(
+        ["serve", "--player", "momp", "--artefacts", "hard", "--configuration", "crkr"])).learned
     assert learned.moving_goal and learned.configuration == "crkr"  # the flag wins
     # Without the flag, or with --artefacts paper: the paper set, committed at the swing start.
     for extra in ([], ["--artefacts", "paper"]):
-        learned = _scenario(parser.parse_args(["serve", "--player", "momp", *extra])).learned
+        learned = scenario_from_options(
+            parser.parse_args(["serve", "--player", "momp", *extra])).learned
         assert learned.library == str(shipped_artefact("library"))
         assert not learned.moving_goal and learned.configuration == "crkr"
 
@@ -150,7 +152,7 @@ def test_the_shipped_hard_library_has_the_hard_stiff_protocols_settings():
 
 def test_reproduce_sizes_and_stages_named_in_the_cli_are_the_modules():
     from tt_drake.diagrams import reproduce as rp
-    from tt_drake.diagrams.cli import PROTOCOL_NAMES, REPRODUCE_STAGES
+    from tt_drake.diagrams.commands.reproduce import PROTOCOL_NAMES, REPRODUCE_STAGES
 
     assert REPRODUCE_STAGES == rp.STAGES and PROTOCOL_NAMES == tuple(rp.PROTOCOLS)
     assert set(rp.SIZES) == {"full", "quick", "artefacts"}

@@ -109,7 +109,8 @@ def _subparsers():
 
 
 def test_option_names_are_the_registries_names():
-    from tt_drake.diagrams.cli import CONFIGURATION_NAMES, EXECUTOR_NAMES
+    from tt_drake.diagrams.commands.options import CONFIGURATION_NAMES
+    from tt_drake.diagrams.commands.reproduce import EXECUTOR_NAMES
     from tt_drake.diagrams.parallel import EXECUTORS
     from tt_drake.diagrams.players import player_names
     from tt_drake.systems.hitting_configuration import SOURCES
@@ -163,26 +164,63 @@ def test_version_is_the_installed_distributions(capsys):
     assert capsys.readouterr().out.strip() == f"tt-drake {version('tt-drake')}"
 
 
+def test_the_parser_imports_no_drake():
+    """--help and option errors answer at once: building every command's options loads no
+    pydrake (the commands load their builders when they run)."""
+    code = ("import sys\nfrom tt_drake.diagrams.cli import build_parser\nbuild_parser()\n"
+            "print(sorted(k for k in sys.modules if k.split('.')[0] == 'pydrake'))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == "[]", f"building the parser imported {out}"
+
+
+def test_every_user_error_is_bad_input():
+    """The command reports bad input as one line by its base class; each module's error for
+    the user's input derives from it."""
+    from tt_drake.diagrams.collect import DatasetError
+    from tt_drake.diagrams.commands.options import CliError
+    from tt_drake.diagrams.episodes import PlayerError, SeedError
+    from tt_drake.diagrams.parallel import ExecutorError
+    from tt_drake.diagrams.predictor import PredictorError
+    from tt_drake.diagrams.reproduce import ReproduceError
+    from tt_drake.diagrams.scenario import ScenarioError
+    from tt_drake.diagrams.serve import CeilingFileError
+    from tt_drake.diagrams.train import TrainError
+    from tt_drake.errors import BadInputError
+    from tt_drake.hitting_point import PredictorFileError
+    from tt_drake.learned_player import LearnedArtefactError
+    from tt_drake.outputs import OutputError
+    from tt_drake.serves import ServeError
+    from tt_drake.systems.world import ModelFileError
+
+    for error in (CliError, ScenarioError, ServeError, PlayerError, ModelFileError, OutputError,
+                  PredictorError, PredictorFileError, DatasetError, TrainError,
+                  LearnedArtefactError, ReproduceError, ExecutorError, SeedError,
+                  CeilingFileError):
+        assert issubclass(error, BadInputError), error
+
+
 def test_learned_players_default_to_the_shipped_artefacts(capsys):
-    from tt_drake.diagrams.cli import _scenario, build_parser
+    from tt_drake.diagrams.cli import build_parser
+    from tt_drake.diagrams.commands.options import scenario_from_options
     from tt_drake.models import shipped_artefact
 
     parser = build_parser()
     for player in ("momp", "crkr"):
-        scenario = _scenario(parser.parse_args(["serve", "--player", player]))
+        scenario = scenario_from_options(parser.parse_args(["serve", "--player", player]))
         learned = scenario.learned
         assert (learned.library, learned.crkr, learned.predictor) == tuple(
             str(shipped_artefact(k)) for k in ("library", "crkr", "predictor"))
         assert all(shipped_artefact(k).is_file() for k in ("library", "crkr", "predictor"))
         assert f"the {player} player uses the shipped artefacts" in capsys.readouterr().err
     # A file named on the command line: only that one, as before (no --predictor: physical).
-    learned = _scenario(parser.parse_args(["serve", "--player", "momp", "--library",
-                                           "mine.npz"])).learned
+    learned = scenario_from_options(
+        parser.parse_args(["serve", "--player", "momp", "--library", "mine.npz"])).learned
     assert (learned.library, learned.crkr, learned.predictor) == ("mine.npz", "", "")
     # Other players load no artefact.
-    learned = _scenario(parser.parse_args(["serve", "--player", "analytical"])).learned
+    learned = scenario_from_options(parser.parse_args(["serve", "--player", "analytical"])).learned
     assert (learned.library, learned.crkr, learned.predictor) == ("", "", "")
-    learned = _scenario(parser.parse_args(["bench", "--player", "crkr"])).learned
+    learned = scenario_from_options(parser.parse_args(["bench", "--player", "crkr"])).learned
     assert learned.crkr == str(shipped_artefact("crkr"))
 
 
