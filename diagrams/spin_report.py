@@ -1,7 +1,5 @@
-"""Hitting-point, t_hit and spin errors of the predictions a player's stroke is planned on.
-
-    python -m tt_drake.diagrams.spin_report --serves N --seed S [--scenario Y] [--distribution D]
-        [--player analytical|momp] [--ceiling] [--workers W] [--json FILE]
+"""Hitting-point, t_hit and spin errors of the predictions a player's stroke is planned on
+(the command: :mod:`tt_drake.diagrams.commands.spin_report`).
 
 For every serve (episode i: ``episode_seed(S, i)``, the pools dealt by run seed S, as in
 ``tt-drake serve``): the full serve episode with camera perception. With ``--ceiling`` the run's
@@ -46,53 +44,48 @@ Prints a summary (median, 90th percentile of each quantity) and writes per-serve
 
 from __future__ import annotations
 
-import argparse
-import sys
-
 import numpy as np
+from pydrake.systems.primitives import VectorLogSink
 
 from tt_drake.constants import PLANES
+from tt_drake.diagrams.players import player_function
+from tt_drake.hitting_point import plane_crossing_from_samples
+from tt_drake.stages import HITTING
+from tt_drake.systems.analytical_player import AnalyticalPlayer
 
 #: A predicted hitting point this close to the hitting plane is on it (m).
 ON_PLANE = 1e-6
 PLAYER_CHOICES = ("analytical", "momp")
 
 
-def _recording_player_type():
+class RecordingAnalyticalPlayer(AnalyticalPlayer):
     """An AnalyticalPlayer that keeps ``history``: (time, estimate time, stroke, estimated
     spin, committed) for every stroke it stores; cleared by the caller before each episode."""
-    from tt_drake.systems.analytical_player import AnalyticalPlayer
 
-    class RecordingAnalyticalPlayer(AnalyticalPlayer):
-        def __init__(self, *args, **kwargs):
-            super().__init__(*args, **kwargs)
-            self.history: list[tuple] = []
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.history: list[tuple] = []
 
-        def _update(self, context, state):
-            before = self.player_state(context).stroke
-            super()._update(context, state)
-            after = state.get_mutable_abstract_state(self._state_index).get_value()
-            if after.stroke is not None and after.stroke is not before:
-                spin = (np.array(self._spin.Eval(context)) if self._spin.HasValue(context)
-                        else np.zeros(3))
-                self.history.append((context.get_time(), after.seen, after.stroke, spin,
-                                     after.committed))
-
-    return RecordingAnalyticalPlayer
+    def _update(self, context, state):
+        before = self.player_state(context).stroke
+        super()._update(context, state)
+        after = state.get_mutable_abstract_state(self._state_index).get_value()
+        if after.stroke is not None and after.stroke is not before:
+            spin = (np.array(self._spin.Eval(context)) if self._spin.HasValue(context)
+                    else np.zeros(3))
+            self.history.append((context.get_time(), after.seen, after.stroke, spin,
+                                 after.committed))
 
 
-def _logged_player(name: str):
+def logged_player(name: str):
     """The player of ``tt-drake serve`` (the analytical one records its strokes), plus a logger
     of the estimator's spin at the referee's rate (the rate of ServeDiagram's own loggers: no
     extra integrator stops)."""
-    from pydrake.systems.primitives import VectorLogSink
-
-    from tt_drake.diagrams.players import player_function
 
     def add(builder, world, controller, scenario) -> list:
         if name == "analytical":
             seeded = player_function("analytical")(builder, world, controller, scenario,
-                                                   player_type=_recording_player_type())
+                                                   player_type=RecordingAnalyticalPlayer)
         else:
             seeded = player_function(name)(builder, world, controller, scenario)
         if builder.HasSubsystemNamed("ball_flight_estimator"):
@@ -123,8 +116,6 @@ class TrueFlight:
     def crossing(self, p_pred, t_pred: float) -> np.ndarray | None:
         """(p, v, omega, t) where the ball crosses the surface the predicted hitting point
         ``p_pred`` lies on (module docstring), or None."""
-        from tt_drake.hitting_point import plane_crossing_from_samples
-
         p_pred = np.asarray(p_pred, dtype=float)
         if abs(p_pred[1] - PLANES.hitting_y) < ON_PLANE:
             hit = plane_crossing_from_samples(self.t, self.p, self.v, PLANES.hitting_y)
@@ -168,8 +159,6 @@ def _errors(flight: TrueFlight, prefix: str, p_hit, t_hit: float, spin=None) -> 
 def serve_report(diagram, ball_world, seed: int) -> dict:
     """One serve's row of the analytical player (module docstring); ``committed`` False and no
     errors when the player never began a hitting stage."""
-    from tt_drake.stages import HITTING
-
     player = diagram.player
     player.history.clear()
     # ServeDiagram clears its own loggers at each run, not this one (a log lives in the context's
@@ -285,110 +274,3 @@ def format_summary(summary: dict) -> str:
             lines.append(f"  {key:28s} median {s['median']:8.2f}  p90 {s['p90']:8.2f}  "
                          f"(n = {s['n']})")
     return "\n".join(lines)
-
-
-def _read_returnable(path: str | None, seed: int, distribution: str,
-                     serves: int) -> list[int] | None:
-    """The returnable serves' indices saved by an earlier ``--ceiling`` run of the same serves;
-    ValueError (one line) if the file is not such a run."""
-    if path is None:
-        return None
-    import json
-
-    try:
-        with open(path, encoding="utf-8") as f:
-            data = json.load(f)
-        indices = data["returnable_indices"]
-        same = (data["seed"], data["distribution"], data["serves_run"]) == (seed, distribution,
-                                                                            serves)
-    except (OSError, ValueError, KeyError, TypeError) as err:
-        raise ValueError(f"--returnable-from {path}: not a spin_report --ceiling result "
-                         f"({err})") from None
-    if not isinstance(indices, list) or not same:
-        raise ValueError(f"--returnable-from {path}: another run (seed, distribution, serves "
-                         f"differ) or not a --ceiling run")
-    return [int(i) for i in indices]
-
-
-def main(argv=None) -> int:
-    from tt_drake.diagrams.ball_world import BallOnlyWorld
-    from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
-    from tt_drake.diagrams.scenario import load_scenario, validate
-    from tt_drake.outputs import check_writable, write_json_atomic
-    from tt_drake.serves import ServeError, ServeSampler
-
-    p = argparse.ArgumentParser(prog="python -m tt_drake.diagrams.spin_report")
-    p.add_argument("--serves", type=int, required=True)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--scenario", default="default")
-    p.add_argument("--distribution", default=None)
-    p.add_argument("--player", default="analytical")
-    p.add_argument("--ceiling", action="store_true",
-                   help="report only the serves the oracle teacher returns")
-    p.add_argument("--returnable-from", default=None,
-                   help="take the returnable serves from this earlier --ceiling run's JSON "
-                        "(same seed, distribution and --serves) instead of running the oracle")
-    p.add_argument("--workers", type=int, default=1, help="processes for the oracle's run")
-    p.add_argument("--json", default=None)
-    args = p.parse_args(argv)
-    try:
-        if args.serves <= 0:
-            raise ValueError(f"--serves must be positive, got {args.serves}")
-        if args.workers <= 0:
-            raise ValueError(f"--workers must be positive, got {args.workers}")
-        if args.player not in PLAYER_CHOICES:
-            raise ValueError(f"--player must be one of {', '.join(PLAYER_CHOICES)}, got "
-                             f"{args.player!r}")
-        scenario = load_scenario(args.scenario)
-        if args.distribution is not None:
-            scenario.launcher.distribution = args.distribution
-            validate(scenario, "--distribution")
-        scenario.launcher.run_seed = args.seed  # the serves of ``tt-drake serve --seed S``
-        c = scenario.launcher
-        ServeSampler(c.distribution, c.spin_max, c.real_serves or None,
-                     rally_path=c.rallies or None).check()  # a split of a file without ids
-        if args.player == "momp" and not scenario.learned.library:
-            from tt_drake.models import shipped_artefact
-
-            learned = scenario.learned
-            learned.library, learned.crkr, learned.predictor = (
-                str(shipped_artefact(kind)) for kind in ("library", "crkr", "predictor"))
-        returnable = _read_returnable(args.returnable_from, args.seed,
-                                      scenario.launcher.distribution, args.serves)
-        if args.json:
-            check_writable(args.json)
-        diagram = ServeDiagram(scenario, _logged_player(args.player), log_ball=True,
-                               end_when_decided=True)
-    except (ValueError, OSError, ServeError) as err:
-        print(f"error: {' '.join(str(err).split())}", file=sys.stderr)
-        return 2
-    indices = list(range(args.serves))
-    if args.ceiling and returnable is None:
-        from tt_drake.diagrams.serve import returnable_serves
-
-        by = returnable_serves(scenario, args.serves, args.seed, progress=True,
-                               workers=args.workers)
-        returnable = [i for i, r in enumerate(by) if r is not None]
-    if returnable is not None:
-        indices = returnable
-    ball_world = BallOnlyWorld(log_period=1.0 / 600.0)
-    report = serve_report if args.player == "analytical" else momp_report
-    rows = []
-    for i in indices:
-        rows.append({"index": i, **report(diagram, ball_world, episode_seed(args.seed, i))})
-    summary = summarise(rows)
-    if returnable is not None:
-        summary["returnable_serves"] = len(indices)
-        summary["run_serves"] = args.serves
-    print(format_summary(summary))
-    if args.json:
-        write_json_atomic(args.json, {"scenario": scenario.name, "seed": args.seed,
-                                      "distribution": scenario.launcher.distribution,
-                                      "player": args.player, "serves_run": args.serves,
-                                      "returnable_indices": returnable,
-                                      "summary": summary, "serves": rows})
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -10,7 +10,7 @@ import gymnasium
 import numpy as np
 import pytest
 
-from tt_drake.diagrams import rl_baselines as rl
+from tt_drake.diagrams.commands import rl_baselines as rl
 from tt_drake.intervals import wilson
 from tt_drake.seeds import episode_seed
 

@@ -1,6 +1,6 @@
 """spin_report's bad input: one line on stderr, exit status 2, no output file."""
 
-from tt_drake.diagrams.spin_report import main
+from tt_drake.diagrams.commands.spin_report import main
 
 
 def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys):

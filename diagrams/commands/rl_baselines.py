@@ -2,12 +2,16 @@
 (``action="absolute"``: no teacher inside), each one command with a seed, resumable, writing
 its progress as it goes:
 
-    python -m tt_drake.diagrams.rl_baselines sac   --serves default --seed 0 --steps 1500 --out DIR
-    python -m tt_drake.diagrams.rl_baselines ppo   --serves default --seed 0 --steps 1500 --out DIR
-    python -m tt_drake.diagrams.rl_baselines cmaes --serves default --seed 0 --steps 1500 --out DIR
-    python -m tt_drake.diagrams.rl_baselines evaluate DIR [DIR ...] --episodes 100
-    python -m tt_drake.diagrams.rl_baselines teachers --serves default --episodes 100 --out DIR
-    python -m tt_drake.diagrams.rl_baselines report DIR [DIR ...] --teachers DIR --png FILE
+    python -m tt_drake.diagrams.commands.rl_baselines COMMAND ...
+
+with COMMAND one of
+
+    sac   --serves default --seed 0 --steps 1500 --out DIR
+    ppo   --serves default --seed 0 --steps 1500 --out DIR
+    cmaes --serves default --seed 0 --steps 1500 --out DIR
+    evaluate DIR [DIR ...] --episodes 100
+    teachers --serves default --episodes 100 --out DIR
+    report DIR [DIR ...] --teachers DIR --png FILE
 
 One step of ReturnBall-v0 is one serve, so ``--steps`` counts training episodes. SAC and PPO are
 Stable-Baselines3's (``pip install "tt-drake[rl]"``: SB3 and torch, optional); CMA-ES (the
@@ -43,8 +47,10 @@ from pathlib import Path
 
 import gymnasium
 import numpy as np
+from matplotlib.figure import Figure
 
 import tt_drake.gym  # noqa: F401  (registers the environments)
+from tt_drake.diagrams.cli import main as tt_drake_main
 from tt_drake.intervals import wilson
 from tt_drake.outputs import write_json_atomic, write_text_atomic
 from tt_drake.seeds import episode_seed
@@ -325,15 +331,13 @@ def teachers(args) -> int:
     """The analytical player and the learned player (paper and hard sets) on the evaluation
     serves, with ``tt-drake serve --seed EVAL_BASE`` (its JSON per player in ``--out``), and
     uniform random absolute actions on the same serves; ``<out>/<serves>.json`` their rates."""
-    from tt_drake.diagrams.cli import main as tt_drake
-
     folder = Path(args.out)
     folder.mkdir(parents=True, exist_ok=True)
     results = {}
     for label, options in TEACHERS.items():
         path = folder / f"{args.serves}_{options[1]}{'_hard' if 'hard' in options else ''}.json"
         if not path.exists():
-            code = tt_drake(["serve", *options, "--distribution", args.serves, "--serves",
+            code = tt_drake_main(["serve", *options, "--distribution", args.serves, "--serves",
                              str(args.episodes), "--seed", str(EVAL_BASE), "--quiet",
                              "--json", str(path)])
             if code:
@@ -363,11 +367,6 @@ def teachers(args) -> int:
 
 def report(args) -> int:
     """The table (Markdown, printed) and the learning curves (``--png``) of the runs."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     rows = ["| serves | policy | training | legal returns (95 % CI) | on target (95 % CI) | "
             "hit | mean reward |", "| --- | --- | --- | --- | --- | --- | --- |"]
 
@@ -378,7 +377,8 @@ def report(args) -> int:
                 f"{r['on_target_ci95'][1]:.1%}] | {r['hit_rate']:.1%} | {r['mean_reward']:.3f} |")
 
     runs = [Path(r) for r in args.runs]
-    fig, axes = plt.subplots(3, 2, figsize=(10.0, 8.0), dpi=90, sharex="col", sharey="row")
+    fig = Figure(figsize=(10.0, 8.0), dpi=90)
+    axes = fig.subplots(3, 2, sharex="col", sharey="row")
     for folder in runs:
         config = json.loads((folder / "config.json").read_text())
         lines = read_progress(folder)
@@ -417,13 +417,12 @@ def report(args) -> int:
     fig.tight_layout()
     if args.png:
         fig.savefig(args.png)
-    plt.close(fig)
     print("\n".join(rows))
     return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m tt_drake.diagrams.rl_baselines",
+    parser = argparse.ArgumentParser(prog="python -m tt_drake.diagrams.commands.rl_baselines",
                                      description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
     for name in (*SB3_ALGORITHMS, "cmaes"):
