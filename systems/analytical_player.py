@@ -412,7 +412,7 @@ class StrokePlanner:
         return StagePlan(current.truncated(now).segments + plan.segments)
 
 
-class _PlayerState(Immutable):
+class PlayerState(Immutable):
     """``seen``: the time of the estimate last acted on (the player waits for a newer one);
     ``bounces``: the incoming ball's bounces on the robot's half seen so far; ``strokes``: the
     balls played so far in the episode (a rally's per-stroke aim is drawn by this index)."""
@@ -461,12 +461,12 @@ class AnalyticalPlayer(StagePlanPlayer):
         self._spin = self.DeclareVectorInputPort("estimated_spin", 3)
         self._status = self.DeclareVectorInputPort("estimator_status", 2)
         self._state_index = self.DeclareAbstractState(
-            AbstractValue.Make(_PlayerState(self.planner.awaiting_plan())))
+            AbstractValue.Make(PlayerState(self.planner.awaiting_plan())))
         # On the planning ticks: a new estimate is acted on at the first tick after it.
         self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, self._update)
         self.DeclareForcedUnrestrictedUpdateEvent(self._update)
 
-    def player_state(self, context) -> _PlayerState:
+    def player_state(self, context) -> PlayerState:
         return context.get_abstract_state(self._state_index).get_value()
 
     def set_seed(self, context, seed: int) -> None:
@@ -477,7 +477,7 @@ class AnalyticalPlayer(StagePlanPlayer):
         """The episode's seed set by :meth:`set_seed` (0 if none was)."""
         return int(context.get_numeric_parameter(self._seed_index).GetAtIndex(0))
 
-    def _stroke(self, context, old: _PlayerState, p_hit, v_hit, t_hit, spin):
+    def _stroke(self, context, old: PlayerState, p_hit, v_hit, t_hit, spin):
         """The planner's stroke for the prediction, aimed for stroke ``old.strokes`` when the
         player has ``aims`` (falling back to the planner's own aim)."""
         if self.aims is not None:
@@ -498,7 +498,7 @@ class AnalyticalPlayer(StagePlanPlayer):
         if old.committed:
             if self.play_again and self._ball_gone(context, old, now):
                 state.get_mutable_abstract_state(self._state_index).set_value(
-                    _PlayerState(remaining(old.plan, now), None, False, old.seen, old.bounces,
+                    PlayerState(remaining(old.plan, now), None, False, old.seen, old.bounces,
                                  old.strokes + 1))
                 return
             if self.corrections:
@@ -507,7 +507,7 @@ class AnalyticalPlayer(StagePlanPlayer):
         plan = old.plan
         hit_segment = next((seg for stage, seg in plan.segments if stage == HITTING), None)
         if hit_segment is not None and now >= hit_segment.t0:
-            new = _PlayerState(plan, old.stroke, committed=True, bounces=old.bounces,
+            new = PlayerState(plan, old.stroke, committed=True, bounces=old.bounces,
                                strokes=old.strokes)
             state.get_mutable_abstract_state(self._state_index).set_value(new)
             return
@@ -528,17 +528,17 @@ class AnalyticalPlayer(StagePlanPlayer):
             return
         new_plan = self.planner.plan(now, plan, stroke)
         state.get_mutable_abstract_state(self._state_index).set_value(
-            _PlayerState(plan if new_plan is None else new_plan, stroke, False, seen, bounces,
+            PlayerState(plan if new_plan is None else new_plan, stroke, False, seen, bounces,
                          old.strokes))
 
-    def _ball_gone(self, context, old: _PlayerState, now: float) -> bool:
+    def _ball_gone(self, context, old: PlayerState, now: float) -> bool:
         """After the planned hit, the estimator tracks a ball flying away from the robot."""
         if old.stroke is None or now <= old.stroke.t_hit:
             return False
         status = self._status.Eval(context)
         return status[0] > 0.5 and self._estimate.Eval(context)[4] > 0.0
 
-    def _fresh_prediction(self, context, state, old: _PlayerState, committed: bool,
+    def _fresh_prediction(self, context, state, old: PlayerState, committed: bool,
                           predict: bool = True):
         """(seen, the bounces counted, the planner's prediction) from an estimate newer than
         the last one acted on, which the state then records as seen (with the bounces counted
@@ -550,17 +550,17 @@ class AnalyticalPlayer(StagePlanPlayer):
             return None
         if not predict:
             state.get_mutable_abstract_state(self._state_index).set_value(
-                _PlayerState(old.plan, old.stroke, committed, seen, old.bounces, old.strokes))
+                PlayerState(old.plan, old.stroke, committed, seen, old.bounces, old.strokes))
             return None
         estimate = self._estimate.Eval(context)
         spin = self._spin.Eval(context) if self._spin.HasValue(context) else None
         bounces = self.planner.count_bounces(old.bounces, estimate, seen, spin)
         state.get_mutable_abstract_state(self._state_index).set_value(
-            _PlayerState(old.plan, old.stroke, committed, seen, bounces, old.strokes))
+            PlayerState(old.plan, old.stroke, committed, seen, bounces, old.strokes))
         prediction = self.planner.predict(estimate, seen, spin, bounces.count)
         return None if prediction is None else (seen, bounces, prediction)
 
-    def _correct(self, context, state, old: _PlayerState, now: float) -> None:
+    def _correct(self, context, state, old: PlayerState, now: float) -> None:
         """During the hitting stage: re-plan its rest on a prediction that moved more than the
         racket forgives, until ``correct_lead`` before the hit (class docstring)."""
         if old.stroke is None:
@@ -583,4 +583,4 @@ class AnalyticalPlayer(StagePlanPlayer):
         plan = self.planner.correct(now, old.plan, stroke)
         if plan is not None:
             state.get_mutable_abstract_state(self._state_index).set_value(
-                _PlayerState(plan, stroke, True, seen, bounces, old.strokes))
+                PlayerState(plan, stroke, True, seen, bounces, old.strokes))

@@ -42,9 +42,9 @@ from tt_drake.stages import (
 )
 from tt_drake.systems.analytical_player import (
     AnalyticalPlayer,
+    PlayerState,
     Stroke,
     StrokePlanner,
-    _PlayerState,
 )
 from tt_drake.systems.immutable import Immutable
 from tt_drake.systems.stage_player import StagePlanPlayer
@@ -100,7 +100,7 @@ class StrokeOffsetPlayer(AnalyticalPlayer):
         plan = type(old.plan)(old.plan.segments[:index] + [
             (HITTING, hit), (FOLLOW_THROUGH, follow), (AWAITING, back)])
         new_stroke = dataclasses.replace(stroke, q_hit=q_hit, qd_hit=qd_hit)
-        state = _PlayerState(plan, new_stroke, True, old.seen, old.bounces)
+        state = PlayerState(plan, new_stroke, True, old.seen, old.bounces)
         context.get_mutable_abstract_state(self._state_index).set_value(state)
         return new_stroke
 

@@ -316,7 +316,7 @@ class BallModel:
         return abs(x) <= p.table_half_width and abs(y) <= p.table_half_length
 
     # -- prediction -----------------------------------------------------------------------------
-    def _advance(self, state, stop, max_time: float, until_bounce: bool = False):
+    def advance(self, state, stop, max_time: float, until_bounce: bool = False):
         """Integrate from ``state`` until ``stop(t, pos, vel)`` changes sign from positive to
         non-positive (an event function), bouncing on the table on the way. Returns the state at
         the event (located by :meth:`_locate`) or None if the ball reaches the floor (centre below
@@ -466,12 +466,12 @@ class BallModel:
         def stop(_t, q, _v):
             return side * (q[1] - plane_y)
 
-        return self._advance(s, stop, max_time)
+        return self.advance(s, stop, max_time)
 
     def first_bounce(self, state, max_time: float = 3.0) -> Bounce | None:
         """The ball's first table impact from ``state`` (when, and where its centre is), or None
         if it reaches the floor (misses the table) or ``max_time`` passes first."""
-        return self._advance(state, lambda _t, _q, _v: 1.0, max_time, until_bounce=True)
+        return self.advance(state, lambda _t, _q, _v: 1.0, max_time, until_bounce=True)
 
     def predict_time(self, state, duration: float) -> PlaneCrossing:
         """State after ``duration`` seconds (bounces on the table included). Raises ValueError if
@@ -484,7 +484,7 @@ class BallModel:
             s = np.asarray(state, dtype=float).reshape(-1)
             w = s[6:9] if s.size == 9 else np.zeros(3)
             return PlaneCrossing(0.0, s[0:3].copy(), s[3:6].copy(), np.array(w), ())
-        hit = self._advance(state, stop, duration + 1.0)
+        hit = self.advance(state, stop, duration + 1.0)
         if hit is None:
             raise ValueError(f"the ball reaches the floor before {duration} s")
         return hit

@@ -85,7 +85,7 @@ class CrKR:
     def n_samples(self) -> int:
         return 0 if self.x is None else int(self.x.shape[0])
 
-    def _check(self, x: ArrayLike, y: ArrayLike, costs: ArrayLike) -> tuple[FloatArray, ...]:
+    def check_samples(self, x: ArrayLike, y: ArrayLike, costs: ArrayLike) -> tuple[FloatArray, ...]:
         x = np.asarray(x, dtype=float)
         x = x[:, None] if x.ndim == 1 else x
         y = np.asarray(y, dtype=float)
@@ -107,7 +107,7 @@ class CrKR:
     def fit(self, x: ArrayLike, y: ArrayLike, costs: ArrayLike) -> CrKR:
         """Fit on ``x (n, d)``, ``y (n, m)`` (or ``(n,)``), ``costs (n,)``; returns ``self``."""
         self.x = None
-        x, y, c = self._check(x, y, costs)
+        x, y, c = self.check_samples(x, y, costs)
         gram = self._k(x, x) + self.lam * np.diag(c)
         try:
             self._chol = cholesky(gram, lower=True)
@@ -121,7 +121,7 @@ class CrKR:
         """Append samples by a block Cholesky update of ``K + lambda C`` (no full refit)."""
         if self.x is None:
             return self.fit(x, y, costs)
-        x, y, c = self._check(x, y, costs)
+        x, y, c = self.check_samples(x, y, costs)
         b = self._k(self.x, x)
         l21 = solve_triangular(self._chol, b, lower=True).T  # (k, n)
         schur = self._k(x, x) + self.lam * np.diag(c) - l21 @ l21.T
@@ -179,7 +179,7 @@ class CrKR:
         arrays, meta = load_artefact(path, CRKR_KIND)
         try:
             model = cls(arrays["bandwidths"], float(meta["lam"]))
-            x, y, c = model._check(arrays["x"], arrays["y"], arrays["costs"])
+            x, y, c = model.check_samples(arrays["x"], arrays["y"], arrays["costs"])
             chol, alpha = arrays["chol"], arrays["alpha"]
             n = x.shape[0]
             if chol.shape != (n, n) or alpha.shape != y.shape or n != meta.get("n_samples"):

@@ -166,7 +166,7 @@ def choose_hitting_point(model: BallModel, state, plane_y: float = PLANES.hittin
         samples[t] = (q[2], v[2])
         return min(side * (q[1] - plane_y), q[2] - FALL_Z)
 
-    end = model._advance(s, stop, max_time)  # predict_plane's integration, with a second event
+    end = model.advance(s, stop, max_time)  # predict_plane's integration, with a second event
     if end is None:
         return None
     robot = [b.t for b in end.bounces if b.position[1] < 0.0]

@@ -514,7 +514,7 @@ def load_configuration_model(path, scenario: str | None = None, hitting_y: float
     _check_meta(path, meta, scenario, hitting_y)
     try:
         model = CrKR(arrays["bandwidths"], float(meta["lam"]))
-        x, y, c = model._check(arrays["x"], arrays["y"], arrays["costs"])
+        x, y, c = model.check_samples(arrays["x"], arrays["y"], arrays["costs"])
         if y.shape[1] != 14 or arrays["y_mean"].shape != (14,):
             raise ValueError("expected 14 outputs (theta_hit, theta_dot_hit)")
         layout = _stimulus_from_meta(meta, x.shape[1])

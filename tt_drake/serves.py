@@ -164,7 +164,7 @@ def approach_end(model: BallModel, state, max_time: float = 3.0) -> PlaneCrossin
     def stop(_t, q, _v):
         return min(side * (q[1] - PLANES.hitting_y), q[2] - FLOOR_STOP_Z)
 
-    return model._advance(s, stop, max_time)  # the event-located integration of predict_plane
+    return model.advance(s, stop, max_time)  # the event-located integration of predict_plane
 
 
 def reaches_robot_half(model: BallModel, state) -> PlaneCrossing | None:
