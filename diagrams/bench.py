@@ -27,6 +27,7 @@ diagram, against diagrams measured in the same run.
 """
 
 import copy
+import os
 import time
 
 import numpy as np
@@ -35,12 +36,16 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
+from tt_drake.benchmarks import bench_momp_planning
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
-from tt_drake.diagrams.players import ControllerPorts
+from tt_drake.diagrams.parallel import run_episodes
+from tt_drake.diagrams.players import ControllerPorts, check_player
 from tt_drake.diagrams.scenario import ControllerConfig, Scenario
 from tt_drake.diagrams.station import add_station, arm_port
 from tt_drake.serves import ServeSampler
+from tt_drake.systems.wam import add_servo_hold
 from tt_drake.systems.world import RECIPE_FLIGHT_ACCURACY, make_simulator, set_ball_state
+from tt_drake.wam_params import AWAITING
 
 # The recipe the C++ reference diagram was defined with (docs/design.md, "Simulation recipe"):
 # kept fixed.
@@ -51,8 +56,6 @@ PROJECTED_SERVES = 10_000
 
 def _swing(duration: float) -> PiecewisePolynomial:
     """A smooth arm swing around the awaiting posture (cubic, zero end velocities)."""
-    from tt_drake.wam_params import AWAITING
-
     q0 = np.asarray(AWAITING, dtype=float)
     q1 = q0 + np.array([0.3, -0.2, 0.2, -0.3, 0.2, 0.2, 0.1])
     times = [0.0, 0.5 * duration, duration]
@@ -63,8 +66,6 @@ def _swing(duration: float) -> PiecewisePolynomial:
 
 class ReferenceDiagram:
     def __init__(self, scenario: Scenario, duration: float):
-        from tt_drake.wam_params import AWAITING
-
         world_config = copy.copy(scenario.world)
         world_config.simulator = REFERENCE_SIMULATOR
         world_config.flight_accuracy = RECIPE_FLIGHT_ACCURACY  # one accuracy throughout
@@ -189,12 +190,7 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
     if workers > 1:
         result["parallel"] = _time_parallel(scenario, player, seeds, workers, project_wall,
                                             project_cpu)
-    try:
-        from tt_drake.benchmarks import bench_momp_planning
-    except ImportError:
-        pass
-    else:
-        result["momp_planning"] = bench_momp_planning()
+    result["momp_planning"] = bench_momp_planning()
     return result
 
 
@@ -242,9 +238,6 @@ def _alternate(runners: dict, serves: int) -> dict:
 def _replay_player(builder: DiagramBuilder, world, controller, scenario: Scenario) -> list:
     """Recorded set-points (q, q_dot, q_ddot) from a C++ ``TrajectorySource`` through the servo
     holds; the trajectory is set per episode (:func:`run_bench`)."""
-    from tt_drake.systems.wam import add_servo_hold
-    from tt_drake.wam_params import AWAITING
-
     rest = np.r_[AWAITING, np.zeros(14)]
     source = builder.AddNamedSystem("setpoint_replay", TrajectorySource(
         PiecewisePolynomial.FirstOrderHold([0.0, 1.0], np.column_stack([rest, rest]))))
@@ -295,11 +288,6 @@ def _time_parallel(scenario: Scenario, player: str, seeds: list[int], workers: i
     - ``other_load``: CPUs' worth of busy time (Linux ``/proc/stat``) spent by everything else
       during the run (the parent process included), and ``steal``: CPUs' worth taken by the
       hypervisor."""
-    import os
-
-    from tt_drake.diagrams.parallel import run_episodes
-    from tt_drake.diagrams.players import check_player
-
     check_player(player, scenario)  # a learned player's artefacts, kept for the workers
     jiffies0 = _machine_jiffies()
     t0 = time.perf_counter()

@@ -13,6 +13,8 @@ The players are registered in :mod:`tt_drake.diagrams.players` (the protocol of 
 function is there); the built-in players' functions are here.
 """
 
+import dataclasses
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -22,6 +24,9 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, VectorLogSink
 
 from tt_drake.arm_metrics import arm_metrics
+from tt_drake.ball_model import CompliantBounceBallModel
+from tt_drake.constants import MAX_SEED, MAX_SERVES, PLANES
+from tt_drake.diagrams.demonstrations import DemonstrationRecorder
 from tt_drake.diagrams.players import (  # noqa: F401 (PlayerError: re-exported)
     PlayerError,
     WorldPorts,
@@ -37,11 +42,29 @@ from tt_drake.diagrams.station import (
     station_ports,
 )
 from tt_drake.errors import BadInputError
+from tt_drake.estimation import EstimatorConfig
+from tt_drake.hitting_point import HittingPointGPR, PhysicalPredictor, PredictorFileError
+from tt_drake.hitting_time import HittingBand
+from tt_drake.learned_player import (
+    LearnedArtefactError,
+    MoMPStroke,
+    load_configuration_model,
+    load_player_library,
+)
 from tt_drake.referee_rules import Outcome
 from tt_drake.seeds import episode_seed  # noqa: F401  (re-exported: runners import it here)
+from tt_drake.stages import HITTING
+from tt_drake.systems.analytical_player import AnalyticalPlayer, PlannerConfig, StrokePlanner
+from tt_drake.systems.ball_camera import BallCamera
+from tt_drake.systems.ball_flight_estimator import BallFlightEstimator
+from tt_drake.systems.ball_oracle import BallOracle
+from tt_drake.systems.hitting_configuration import SOURCES, HittingConfiguration
+from tt_drake.systems.hitting_ik import HittingIK
+from tt_drake.systems.hitting_point_predictor import HittingPointPredictor
+from tt_drake.systems.momp_player import MoMPTrajectorySource, momp_config
 from tt_drake.systems.wam import SERVO_HOLD, add_servo_hold, hold_first_setpoint
 from tt_drake.systems.world import World, advance_in_segments, simulator_and_schedule
-from tt_drake.wam_params import SERVO_PERIOD
+from tt_drake.wam_params import AWAITING, SERVO_PERIOD
 
 # The players' set-points are held for a servo tick; they evaluate their plans half a tick ahead.
 SETPOINT_LEAD = 0.5 * SERVO_PERIOD
@@ -55,8 +78,6 @@ NO_CROSSING_DURATION = 3.0
 
 def add_idle_player(builder: DiagramBuilder, world: World, controller, scenario: Scenario) -> list:
     """Hold the awaiting posture: constant desired state (q_await, 0) and zero acceleration."""
-    from tt_drake.wam_params import AWAITING
-
     q = np.asarray(AWAITING, dtype=float)
     desired = builder.AddNamedSystem("idle_player", ConstantVectorSource(np.r_[q, np.zeros(7)]))
     builder.Connect(desired.get_output_port(), controller.get_input_port_desired_state())
@@ -71,18 +92,10 @@ def add_perception(builder: DiagramBuilder, world: World, scenario: Scenario,
     estimator (with ``estimator_config``, default :class:`EstimatorConfig`), or ``oracle`` (the
     true ball state at the camera's frames, no noise). Returns (the systems that draw random
     numbers, the system with the estimator's output ports)."""
-    import dataclasses
-
-    from tt_drake.estimation import EstimatorConfig
-
     if scenario.perception == "oracle":
-        from tt_drake.systems.ball_oracle import BallOracle
-
         oracle = builder.AddNamedSystem("ball_oracle", BallOracle())
         builder.Connect(world.plant.get_state_output_port(world.ball), oracle.get_input_port(0))
         return [], oracle
-    from tt_drake.systems.ball_camera import BallCamera
-    from tt_drake.systems.ball_flight_estimator import BallFlightEstimator
 
     camera = builder.AddNamedSystem("ball_camera", BallCamera(scenario.camera))
     builder.Connect(world.plant.get_state_output_port(world.ball), camera.get_input_port(0))
@@ -102,8 +115,6 @@ def add_analytical_player(builder: DiagramBuilder, world: World, controller,
     ``player_type``: a subclass of AnalyticalPlayer to wire instead (the Gymnasium envs).
     ``config``: the planner's :class:`PlannerConfig` (default: aiming at the scenario's
     referee target)."""
-    from tt_drake.systems.analytical_player import AnalyticalPlayer, PlannerConfig, StrokePlanner
-
     seeded, estimator = add_perception(builder, world, scenario)
     if config is None:
         config = PlannerConfig(target_x=scenario.referee.target_x,
@@ -126,8 +137,6 @@ _CHECKED: dict = {}
 
 
 def _artefact_key(scenario: Scenario, primitives: bool) -> tuple:
-    import os
-
     cfg = scenario.learned
     files = []
     for path in (cfg.library if primitives else "", cfg.crkr, cfg.predictor):
@@ -144,15 +153,6 @@ def load_learned_player(scenario: Scenario, primitives: bool = True, keep: bool 
     primitive library only with ``primitives``); raise PlayerError with one line naming the
     problem (missing, corrupt, another scenario). With ``keep`` the artefacts are also kept for
     the next load of the same unchanged files, which takes them (one diagram owns them)."""
-    from tt_drake.constants import PLANES
-    from tt_drake.hitting_point import HittingPointGPR, PredictorFileError
-    from tt_drake.learned_player import (
-        LearnedArtefactError,
-        load_configuration_model,
-        load_player_library,
-    )
-    from tt_drake.systems.hitting_configuration import SOURCES
-
     cfg = scenario.learned
     if cfg.configuration not in SOURCES:
         raise PlayerError(f"unknown hitting configuration {cfg.configuration!r}; choose one of "
@@ -208,15 +208,6 @@ def add_learned_player(builder: DiagramBuilder, world: World, controller, scenar
     learned hitting configuration evaluated on its own. ``band``: where the moving goal's
     refreshed predictions may hit off the plane (:class:`tt_drake.hitting_time.HittingBand`;
     None: the default band, with the moving goal)."""
-    from tt_drake.ball_model import CompliantBounceBallModel
-    from tt_drake.hitting_point import PhysicalPredictor
-    from tt_drake.hitting_time import HittingBand
-    from tt_drake.systems.analytical_player import PlannerConfig, StrokePlanner
-    from tt_drake.systems.hitting_configuration import HittingConfiguration
-    from tt_drake.systems.hitting_ik import HittingIK
-    from tt_drake.systems.hitting_point_predictor import HittingPointPredictor
-    from tt_drake.systems.momp_player import MoMPTrajectorySource, momp_config
-
     learned = load_learned_player(scenario, primitives)
     # A GPR is fed the estimates of the filter it was trained on (docs/spin.md).
     gpr = learned["gpr"]
@@ -328,8 +319,6 @@ def stroke_summary(stroke) -> dict | None:
     """The learned player's last (re-)plan of an episode, for JSON: the stimulus it used, which
     hitting primitives carried the stroke with their mixture weights nu_i (Eq. 6), how many
     re-plans, and whether it fell back to the teacher's quintics (None for other players)."""
-    from tt_drake.learned_player import MoMPStroke
-
     if not isinstance(stroke, MoMPStroke):
         return None
     return {"stimulus": [round(float(c), 5) for c in stroke.stimulus],
@@ -401,8 +390,6 @@ class ServeDiagram:
                             .GetOutputPort("final"), self.final_logger.get_input_port())
         self.recorder = None
         if record:
-            from tt_drake.diagrams.demonstrations import DemonstrationRecorder
-
             self.recorder = DemonstrationRecorder(builder, world, scenario)
         self.ball_logger = self.estimate_logger = self.prediction_logger = None
         if log_ball:
@@ -539,8 +526,6 @@ class ServeDiagram:
     def _hit_on_early_prediction(self) -> bool:
         """Whether the learned player's hitting stage began before the predictor's final (GPR)
         prediction was out, i.e. on an early physical-model one (to the referee's period)."""
-        from tt_drake.stages import HITTING
-
         plan = self.player.player_state(self.player.GetMyContextFromRoot(self.context)).plan
         start = next((seg.t0 for stage, seg in plan.segments if stage == HITTING), None)
         if start is None:
@@ -610,8 +595,6 @@ class SeedError(ValueError, BadInputError):
 def check_run(seed: int, serves: int | None = None) -> None:
     """Refuse a base seed outside [0, MAX_SEED] or a serve count outside [1, MAX_SERVES]
     before anything is simulated or written."""
-    from tt_drake.constants import MAX_SEED, MAX_SERVES
-
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not (
             0 <= seed <= MAX_SEED):
         raise SeedError(f"seed must be a whole number in [0, {MAX_SEED}], got {seed!r}")

@@ -98,6 +98,7 @@ import math
 import gymnasium as gym
 import numpy as np
 from pydrake.gym import DrakeGymEnv
+from pydrake.systems.primitives import Adder
 
 from tt_drake.diagrams.episodes import (
     SETPOINT_LEAD,
@@ -400,8 +401,6 @@ def offset_player(builder, world, controller, scenario: Scenario, player: str,
     state (:class:`SetpointOffset` at ``rate``, exported as the ``actions`` input); the
     ``observations`` output as :func:`_setpoint_player`'s, from the player's own estimator if it
     has one (else one is added)."""
-    from pydrake.systems.primitives import Adder
-
     offset = builder.AddNamedSystem("setpoint_offset", SetpointOffset(rate, offset=SERVO_PERIOD))
     total = builder.AddNamedSystem("desired_state_with_offset", Adder(2, 14))
     builder.Connect(offset.GetOutputPort("desired_state"), total.get_input_port(1))

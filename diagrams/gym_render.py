@@ -16,10 +16,23 @@ the serve diagram has no renderer or visualizer, and nothing here changes its nu
 from __future__ import annotations
 
 import numpy as np
+from pydrake.geometry import (
+    ClippingRange,
+    ColorRenderCamera,
+    DepthRange,
+    DepthRenderCamera,
+    MakeRenderEngineVtk,
+    RenderCameraCore,
+    RenderEngineVtkParams,
+)
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.sensors import CameraInfo, RgbdSensor
 
 from tt_drake.diagrams.episodes import EpisodeResult, summarize
 from tt_drake.diagrams.recording import Recording
 from tt_drake.outputs import write_text_atomic
+from tt_drake.systems.world import add_world
 
 #: Frame size (pixels) and vertical field of view (rad) of ``rgb_array`` frames.
 FRAME_WIDTH, FRAME_HEIGHT, FRAME_FOV = 480, 360, np.pi / 3
@@ -30,8 +43,6 @@ FRAME_EYE, FRAME_TARGET = (2.3, -3.9, 2.3), (-0.1, -1.2, 0.9)
 def camera_pose(eye, target):
     """The camera's pose X_WC looking from ``eye`` at ``target`` with the world's z up: Drake's
     camera frame has +z along the view, +x to the right and +y down the image."""
-    from pydrake.math import RigidTransform, RotationMatrix
-
     eye, target = np.asarray(eye, dtype=float), np.asarray(target, dtype=float)
     z = (target - eye) / np.linalg.norm(target - eye)
     x = np.cross(z, [0.0, 0.0, 1.0])
@@ -43,21 +54,6 @@ class FrameRenderer:
     """Offscreen frames of the arm and the ball in the scenario's world (module docstring)."""
 
     def __init__(self, world_config, width: int = FRAME_WIDTH, height: int = FRAME_HEIGHT):
-        from pydrake.geometry import (
-            ClippingRange,
-            ColorRenderCamera,
-            DepthRange,
-            DepthRenderCamera,
-            MakeRenderEngineVtk,
-            RenderCameraCore,
-            RenderEngineVtkParams,
-        )
-        from pydrake.math import RigidTransform
-        from pydrake.systems.framework import DiagramBuilder
-        from pydrake.systems.sensors import CameraInfo, RgbdSensor
-
-        from tt_drake.systems.world import add_world
-
         builder = DiagramBuilder()
         self.world = add_world(builder, world_config)
         self.world.scene_graph.AddRenderer("vtk", MakeRenderEngineVtk(RenderEngineVtkParams()))

@@ -5,15 +5,14 @@ commands call :func:`check_inputs` first, and a missing or unreadable file is on
 """
 
 from tt_drake.diagrams.scenario import Scenario
+from tt_drake.serves import load_real_states
+from tt_drake.systems.world import model_path
 
 
 def check_inputs(scenario: Scenario, distributions: tuple[str, ...] = ()) -> None:
     """The scenario's model files, and the real serve states if the scenario's distribution or
     one in ``distributions`` (others the command will switch to) is ``real``. Raises
     ``ModelFileError`` or ``ServeError``."""
-    from tt_drake.serves import load_real_states
-    from tt_drake.systems.world import model_path
-
     models = scenario.world.models
     for name in (models.table, models.ball) + ((models.robot,) if scenario.world.with_robot
                                                else ()):

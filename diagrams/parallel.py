@@ -10,53 +10,27 @@ worth of work, and BLAS threads of several workers oversubscribe the cores (docs
 "The serve diagram's Python").
 """
 
+import contextlib
 import itertools
 import multiprocessing
 import os
 from collections.abc import Callable, Iterable, Iterator
 
 from tt_drake.diagrams.episodes import EpisodeResult, ServeDiagram
+from tt_drake.diagrams.ray_executor import ray_session, run_ray
 from tt_drake.diagrams.scenario import Scenario
-from tt_drake.errors import BadInputError
+from tt_drake.diagrams.workers import ExecutorError, one_blas_thread, run_one
 
 _WORKER: dict = {}
-
-
-class ExecutorError(ValueError, BadInputError):
-    """An unknown executor, or one whose optional dependency is not installed."""
 
 
 def default_workers() -> int:
     return max(1, len(os.sched_getaffinity(0)))
 
 
-BLAS_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
-                         "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS", "NUMEXPR_NUM_THREADS")
-
-
-def one_blas_thread() -> None:
-    """Limit this process's BLAS/OpenMP thread pools to one thread: those already loaded (through
-    threadpoolctl, a scikit-learn dependency) and, through the environment, any loaded later."""
-    for name in BLAS_THREAD_VARIABLES:
-        os.environ[name] = "1"
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # pragma: no cover - scikit-learn depends on it
-        return
-    threadpool_limits(limits=1)
-
-
 def _init(scenario: Scenario, player: str, make_diagram) -> None:
     one_blas_thread()
     _WORKER["diagram"] = make_diagram(scenario, player)
-
-
-def run_one(diagram, seed: int, gamma=None, weights=None) -> EpisodeResult:
-    """``diagram.run`` for one seed; ``weights`` is passed only when given (a diagram of
-    another player needs no primitive weights)."""
-    if weights is None:
-        return diagram.run(seed, gamma=gamma)
-    return diagram.run(seed, gamma=gamma, weights=weights)
 
 
 def _run(task: tuple) -> EpisodeResult:
@@ -100,24 +74,14 @@ def run_episodes(scenario: Scenario, player: str, seeds: Iterable[int], workers:
         pool.join()
 
 
-def _run_ray(*args) -> Iterator[EpisodeResult]:
-    from tt_drake.diagrams.ray_executor import run_ray  # imports Ray only when it is asked for
-
-    return run_ray(*args)
-
-
 # Executors other than ``local``: name -> function(scenario, player, seeds, workers, make_diagram,
 # gamma, weights) yielding EpisodeResults in seed order.
-EXECUTORS: dict[str, Callable] = {"local": None, "ray": _run_ray}
+EXECUTORS: dict[str, Callable] = {"local": None, "ray": run_ray}
 
 
 def executor_session(executor: str, workers: int):
     """A context in which many :func:`run_episodes` calls share the executor's set-up (Ray is
     started once); nothing to do for ``local``."""
-    import contextlib
-
     if executor == "ray":
-        from tt_drake.diagrams.ray_executor import ray_session
-
         return ray_session(workers)
     return contextlib.nullcontext()

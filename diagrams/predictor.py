@@ -28,6 +28,7 @@ import contextlib
 import hashlib
 import json
 import math
+import multiprocessing as mp
 import os
 import sys
 import time
@@ -37,16 +38,19 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.stats import chi2
+from tqdm import tqdm
 
 from tt_drake.artefacts import ArtefactError, check_npz_sizes
 from tt_drake.ball_model import BallModel, CompliantBounceBallModel
 from tt_drake.camera_model import CameraConfig, CameraModel
 from tt_drake.constants import PLANES
 from tt_drake.diagrams.ball_world import BallOnlyWorld
-from tt_drake.diagrams.episodes import check_run
+from tt_drake.diagrams.episodes import check_run, episode_seed
 from tt_drake.errors import BadInputError
 from tt_drake.estimation import EstimatorConfig, nees, run_filter
 from tt_drake.hitting_point import (
+    FEATURE_SETS,
     OUTPUT_NAMES,
     HittingPointGPR,
     PhysicalPredictor,
@@ -56,6 +60,8 @@ from tt_drake.hitting_point import (
     plane_crossing_from_samples,
     regression_metrics,
 )
+from tt_drake.outputs import FolderLock, atomic_file, check_writable, write_json_atomic
+from tt_drake.serves import ServeError, ServeSampler
 
 FRAME_RATE = 60.0
 SUBSAMPLES = 10  # log samples per camera frame
@@ -125,7 +131,6 @@ _WORKER: dict = {}
 
 def _worker_chunk(args) -> dict:
     seeds, distribution, base_seed = args
-    from tt_drake.serves import ServeSampler
 
     if "sim" not in _WORKER:
         _WORKER["sim"] = BallOnlySimulation()
@@ -143,8 +148,6 @@ def parse_distributions(text: str | None) -> list[str]:
     """The serve distributions of a comma-separated list (default: ``default``); ServeError
     naming an unknown one or an unusable data file (a split asked of a file without ids); each
     distribution once."""
-    from tt_drake.serves import ServeError, ServeSampler
-
     names = [n.strip() for n in (text or "default").split(",")]
     for name in names:
         ServeSampler(name).check()
@@ -199,8 +202,6 @@ def generate_samples(n: int, base_seed: int, cache_dir: str | os.PathLike | None
     """Simulate serves 0..n-1 of ``base_seed`` (seeds ``episode_seed(base_seed, i)``) of
     ``distribution``, reusing cached chunks (a damaged one is reported and simulated again);
     returns the stacked arrays of :class:`SimSample`."""
-    from tt_drake.outputs import FolderLock
-
     check_run(base_seed, n)
     cache = Path(cache_dir) if cache_dir is not None else None
     # The cache folder is locked while this run fills it: a concurrent run is refused.
@@ -244,11 +245,6 @@ def _load_chunk(path: Path, seeds: list[int]) -> dict | None:
 
 def _generate_samples(n: int, base_seed: int, cache: Path | None, workers: int, progress: bool,
                       desc: str, distribution: str = "default") -> dict:
-    from tqdm import tqdm
-
-    from tt_drake.diagrams.episodes import episode_seed
-    from tt_drake.outputs import atomic_file
-
     n_chunks = math.ceil(n / CHUNK)
     chunks: dict[int, dict] = {}
     todo = []
@@ -275,8 +271,6 @@ def _generate_samples(n: int, base_seed: int, cache: Path | None, workers: int, 
             for c, seeds, path in todo:
                 store(c, path, _worker_chunk((seeds, distribution, base_seed)))
         else:
-            import multiprocessing as mp
-
             ctx = mp.get_context("fork")
             with ctx.Pool(workers) as pool:
                 results = pool.imap(_worker_chunk, [(seeds, distribution, base_seed)
@@ -352,8 +346,6 @@ def build_dataset(samples: dict, camera: CameraConfig, estimator: EstimatorConfi
                   feature_set: str = "states"):
     """Features X (of ``feature_set``), labels Y, physical-model predictions (or None: from the
     estimated state and spin at the fourth observation) and skipped-serve reasons."""
-    from tqdm import tqdm
-
     X, Y, P, used, skipped = [], [], [], [], {}
     phys = PhysicalPredictor() if physical else None
     for i in tqdm(range(len(samples["seed"])), desc=desc, unit="serve", file=sys.stderr,
@@ -401,8 +393,6 @@ def estimator_statistics(samples: dict, camera: CameraConfig, estimator: Estimat
     """Position / velocity RMSE of the filter against truth per flight phase (before the net,
     net to the robot-side bounce, bounce to the hitting plane), the fraction of steps whose NEES
     lies in the two-sided 95 % chi-square band (6 dof) and the mean NEES."""
-    from scipy.stats import chi2
-
     lo, hi = chi2.ppf(0.025, 6), chi2.ppf(0.975, 6)
     err_p = {k: [] for k in PHASES}
     err_v = {k: [] for k in PHASES}
@@ -450,9 +440,6 @@ def train_predictor(serves: int, seed: int, out: str, camera: CameraConfig | Non
                     feature_set: str = "states") -> dict:
     """Train on ``serves`` serves of ``distribution`` (a comma-separated mix: module docstring)
     with the features of ``feature_set`` (:data:`tt_drake.hitting_point.FEATURE_SETS`)."""
-    from tt_drake.hitting_point import FEATURE_SETS
-    from tt_drake.outputs import check_writable
-
     distributions = parse_distributions(distribution)
     if feature_set not in FEATURE_SETS:
         raise PredictorError(f"unknown feature set {feature_set!r}; choose one of "
@@ -505,8 +492,6 @@ def eval_predictor(model: str, serves: int, seed: int, json_path: str | None = N
     ``distribution`` (default ``default``; a comma-separated mix as in training). With
     ``keep_errors`` the result also holds ``errors``: the GPR's predicted-minus-true values
     (n, 7) in the report units (mm, mm/s, ms), not written to the JSON."""
-    from tt_drake.outputs import check_writable, write_json_atomic
-
     distributions = parse_distributions(distribution)
     gpr = HittingPointGPR.load(model)
     if json_path:

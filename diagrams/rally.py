@@ -22,21 +22,49 @@ from __future__ import annotations
 import copy
 import dataclasses
 import functools
+import html as html_lib
 import math
 import sys
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from pydrake.geometry import Rgba, Sphere
+from pydrake.math import RigidTransform
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import PassThrough, VectorLogSink
+from tqdm import tqdm
 
 from tt_drake.camera_model import MAX_CAMERA_FRAMES
 from tt_drake.diagrams.episodes import PlayerError, check_run, episode_seed
+from tt_drake.diagrams.parallel import run_episodes
 from tt_drake.diagrams.players import ControllerPorts, player_function, player_system
-from tt_drake.diagrams.recording import RecordingScene
+from tt_drake.diagrams.recording import (
+    BALL_COLOUR,
+    BALL_MARKER_RADIUS,
+    FAULT_COLOUR,
+    HOLD,
+    PATH_COLOUR,
+    RETURN_COLOUR,
+    TABLE_Z,
+    RecordingScene,
+)
 from tt_drake.diagrams.scenario import Scenario, validate
+from tt_drake.diagrams.serve import scenario_dict
+from tt_drake.diagrams.station import (
+    add_station,
+    arm_port,
+    awaiting_posture,
+    reset_episode,
+    station_ports,
+)
+from tt_drake.outputs import check_writable, write_json_atomic, write_text_atomic
+from tt_drake.provenance import run_provenance
 from tt_drake.rally_aim import draw_aim
-from tt_drake.rally_rules import SIDES, Exchange, RallyFault
+from tt_drake.rally_rules import SIDES, Exchange, RallyFault, to_side
 from tt_drake.rally_stats import outgoing_figures
+from tt_drake.systems.wam import hold_first_setpoint
+from tt_drake.systems.world import make_simulator
 
 STARTS = ("serve", "rally")
 
@@ -91,9 +119,6 @@ def build_player_side(player, scenario: Scenario, side: int):
     each stroke, and every planner (a ``planner`` attribute whose config has a target) aims at
     the rally's target. Returns (diagram, the systems that draw random numbers, the player
     system: the one with a ``stroke`` output, or None)."""
-    from pydrake.systems.framework import DiagramBuilder
-    from pydrake.systems.primitives import PassThrough
-
     add_player = player_function(player)
     sub = DiagramBuilder()
     ball = sub.AddNamedSystem("ball_state", PassThrough(13))
@@ -170,12 +195,6 @@ class RallyDiagram:
     def __init__(self, scenario: Scenario, players: tuple[str, str] = ("analytical",
                                                                       "analytical"),
                  log: bool = False):
-        from pydrake.systems.framework import DiagramBuilder
-        from pydrake.systems.primitives import VectorLogSink
-
-        from tt_drake.diagrams.station import add_station, arm_port, station_ports
-        from tt_drake.systems.world import make_simulator
-
         validate(scenario)
         c = scenario.controller
         if any(c.joint_coulomb) or any(c.joint_viscous) or any(c.torque_noise):
@@ -221,9 +240,6 @@ class RallyDiagram:
         self._initial = self.context.Clone()
 
     def _set_awaiting_posture(self) -> None:
-        from tt_drake.diagrams.station import awaiting_posture
-        from tt_drake.systems.wam import hold_first_setpoint
-
         awaiting_posture(self.world, self.context)
         for side in self.sides:
             hold_first_setpoint(side, self.context)
@@ -231,8 +247,6 @@ class RallyDiagram:
     def run(self, seed: int, gamma=None) -> RallyResult:
         """Simulate one rally from ``seed`` (``gamma``: accepted for the parallel runner's
         interface; must be None)."""
-        from tt_drake.diagrams.station import reset_episode
-
         if gamma is not None:
             raise PlayerError("responsibilities gamma are not used by the rally")
         wall = time.perf_counter()
@@ -316,12 +330,6 @@ def run_rallies(scenario: Scenario, players: tuple[str, str], rallies: int, seed
     """Run ``rallies`` rallies; rally i uses ``episode_seed(seed, i)``. Returns the JSON dict.
     With ``workers`` > 1 (and no ``html``) they run in that many processes
     (:func:`tt_drake.diagrams.parallel.run_episodes`)."""
-    from tqdm import tqdm
-
-    from tt_drake.diagrams.serve import scenario_dict
-    from tt_drake.outputs import check_writable, write_json_atomic, write_text_atomic
-    from tt_drake.provenance import run_provenance
-
     check_run(seed, rallies)
     for path in (html, json_path):
         if path:
@@ -342,8 +350,6 @@ def run_rallies(scenario: Scenario, players: tuple[str, str], rallies: int, seed
             recording = RallyRecording(scenario)
         runs = (diagram.run(s) for s in seeds)
     else:
-        from tt_drake.diagrams.parallel import run_episodes
-
         runs = run_episodes(scenario, tuple(players), seeds, workers, make_diagram=RallyDiagram)
     for i, result in enumerate(runs):
         results.append(result)
@@ -387,18 +393,12 @@ class RallyRecording(RecordingScene):
     serves'; saved with ``StaticHtml``."""
 
     def __init__(self, scenario: Scenario):
-        from pydrake.geometry import Rgba, Sphere
-
-        from tt_drake.diagrams.recording import BALL_COLOUR, BALL_MARKER_RADIUS
-
         super().__init__(scenario.world)
         self.meshcat.SetCameraPose([3.2, -0.6, 2.6], [0.0, 0.0, 0.76])
         self.meshcat.SetObject("/ball_marker", Sphere(BALL_MARKER_RADIUS), Rgba(*BALL_COLOUR))
         self.offset, self.segments = 0.0, []
 
     def _publish(self, t: float, ball, arm_a, arm_b) -> None:
-        from pydrake.math import RigidTransform
-
         self.animation.SetTransform(self.animation.frame(t), "/ball_marker",
                                     RigidTransform(ball[4:7]))
         plant = self.world.plant
@@ -412,18 +412,6 @@ class RallyRecording(RecordingScene):
         """Rally ``index`` from the current offset: one keyframe per animation frame, its ball
         path (orange line) and landings (green: a legal return's, red: where the fault ended it)
         shown only during its segment."""
-        from pydrake.geometry import Rgba, Sphere
-        from pydrake.math import RigidTransform
-
-        from tt_drake.diagrams.recording import (
-            FAULT_COLOUR,
-            HOLD,
-            PATH_COLOUR,
-            RETURN_COLOUR,
-            TABLE_Z,
-        )
-        from tt_drake.rally_rules import to_side
-
         times, ball, arm_a, arm_b = result.poses
         fps = self.animation.frames_per_second()
         start = self.offset
@@ -451,8 +439,6 @@ class RallyRecording(RecordingScene):
         self.offset = stop / fps
 
     def html(self, data: dict) -> str:
-        import html as html_lib
-
         self.visualizer.StopRecording()
         self.visualizer.PublishRecording()
         page = self.meshcat.StaticHtml()

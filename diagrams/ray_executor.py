@@ -19,15 +19,15 @@ from collections.abc import Callable, Iterator
 from pydrake.common.yaml import yaml_load_typed
 
 from tt_drake.diagrams.episodes import EpisodeResult
-from tt_drake.diagrams.parallel import ExecutorError, one_blas_thread, run_one
 from tt_drake.diagrams.scenario import Scenario, dump_scenario
+from tt_drake.diagrams.workers import ExecutorError, one_blas_thread, run_one
 
 IN_FLIGHT = 2  # episodes queued per actor
 
 
 def _import_ray():
     try:
-        import ray
+        import ray  # the optional ray extra: imported when the ray executor is asked for
     except ImportError:
         raise ExecutorError("the ray executor needs Ray: pip install 'tt-drake[ray]'") from None
     return ray

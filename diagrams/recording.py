@@ -19,8 +19,12 @@ import logging
 import math
 
 import numpy as np
+from pydrake.geometry import Cylinder, Meshcat, MeshcatParams, Rgba, Sphere
+from pydrake.math import RigidTransform
+from pydrake.systems.framework import DiagramBuilder
 
 from tt_drake.diagrams.episodes import EpisodeResult
+from tt_drake.diagrams.station import add_station, robots_of
 
 # Colours (r, g, b, alpha); the legend names each one.
 RETURN_COLOUR = (0.1, 0.8, 0.2, 1.0)
@@ -55,8 +59,6 @@ def make_meshcat():
     and our models reference no remote package. Nothing is served to a browser from it, so
     Drake's "Meshcat listening for connections" line (logged at info level as the server starts)
     is not shown: it would point at a server that stops with the command."""
-    from pydrake.geometry import Meshcat, MeshcatParams
-
     drake_log = logging.getLogger("drake")
     level = drake_log.level
     drake_log.setLevel(logging.WARNING)
@@ -76,10 +78,6 @@ class RecordingScene:
     browser paused it)."""
 
     def __init__(self, world_config):
-        from pydrake.systems.framework import DiagramBuilder
-
-        from tt_drake.diagrams.station import add_station, robots_of
-
         self.meshcat = make_meshcat()
         # Only the plant (and scene graph) of the station, drawn by the visualizer.
         builder = DiagramBuilder()
@@ -113,7 +111,6 @@ class Recording(RecordingScene):
         super().__init__(scenario.world)
         mark_target(self.meshcat, scenario.referee.target_x, scenario.referee.target_y,
                     scenario.referee.target_radius)
-        from pydrake.geometry import Rgba, Sphere
 
         # The ball (40 mm) is a few pixels wide at the default camera: a halo follows it.
         self.meshcat.SetObject("/ball_marker", Sphere(BALL_MARKER_RADIUS), Rgba(*BALL_COLOUR))
@@ -134,8 +131,6 @@ class Recording(RecordingScene):
             self._last_properties[(path, prop)] = (frame, value)
 
     def _publish(self, t: float, ball, arm) -> None:
-        from pydrake.math import RigidTransform
-
         self._last_pose = (ball, arm)
         self.animation.SetTransform(self.frame(t), "/ball_marker", RigidTransform(ball[4:7]))
         plant = self.world.plant
@@ -185,8 +180,6 @@ class Recording(RecordingScene):
     def _close(self) -> None:
         """Give every animated path a keyframe at the recording's last frame, holding its last
         value: all clips then last as long and loop together."""
-        from pydrake.math import RigidTransform
-
         end = self.frame(self.offset)
         if self._last_pose is not None:
             self._publish(end / self.animation.frames_per_second(), *self._last_pose)
@@ -219,9 +212,6 @@ def draw_beliefs(meshcat, animation, path: str, beliefs: dict, offset: float = 0
     """What the robot believed: the estimated ball path (blue line) and the predicted hitting
     point (magenta sphere), moved in the recording each time the prediction changed. Returns the
     sphere's path and last position (None without predictions)."""
-    from pydrake.geometry import Rgba, Sphere
-    from pydrake.math import RigidTransform
-
     estimated = beliefs.get("estimated_path")
     if estimated is not None and len(estimated) > 1:
         meshcat.SetLine(f"{path}/estimated_path", np.asarray(estimated).T, 3.0,
@@ -242,9 +232,6 @@ def draw_beliefs(meshcat, animation, path: str, beliefs: dict, offset: float = 0
 def draw_episode(meshcat, path: str, result: EpisodeResult, ball_path=None) -> None:
     """The ball's path (default: the result's) as a line and the landing point as a sphere on a
     pin (green: legal return, red: fault)."""
-    from pydrake.geometry import Cylinder, Rgba, Sphere
-    from pydrake.math import RigidTransform
-
     ball_path = result.ball_path if ball_path is None else ball_path
     if ball_path is not None and len(ball_path) > 1:
         meshcat.SetLine(f"{path}/ball_path", np.asarray(ball_path).T, 3.0, Rgba(*PATH_COLOUR))
@@ -262,9 +249,6 @@ def draw_episode(meshcat, path: str, result: EpisodeResult, ball_path=None) -> N
 
 def mark_target(meshcat, x: float, y: float, radius: float) -> None:
     """The landing target: a yellow disc of the on-target radius with a pin at its centre."""
-    from pydrake.geometry import Cylinder, Rgba, Sphere
-    from pydrake.math import RigidTransform
-
     colour = Rgba(*TARGET_COLOUR)
     meshcat.SetObject("/target/disc", Cylinder(radius, 0.004), colour)
     meshcat.SetTransform("/target/disc", RigidTransform([x, y, TABLE_Z + 0.003]))
@@ -280,9 +264,6 @@ def draw_stroke(meshcat, path: str, stroke: dict | None, library) -> None:
     hitting point x_i (its stimulus' position, on the hitting plane) as a sphere whose volume is
     its mixture weight nu_i (Eq. 6), the five heaviest; grey if the primitives' plan left the
     joint limits and the teacher's quintics moved the arm instead."""
-    from pydrake.geometry import Rgba, Sphere
-    from pydrake.math import RigidTransform
-
     if not stroke or library is None or not stroke["primitives"]:
         return
     colour = FALLBACK_COLOUR if stroke["fallback"] else PRIMITIVE_COLOUR

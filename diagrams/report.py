@@ -13,7 +13,12 @@ from pathlib import Path
 
 import numpy as np
 
+from tt_drake.artefacts import load_artefact
+from tt_drake.diagrams import report_plots as rp
+from tt_drake.diagrams.protocols import PROTOCOLS, STAGES, rates
+from tt_drake.hitting_point import OUTPUT_NAMES, OUTPUT_UNITS
 from tt_drake.outputs import write_json_atomic, write_text_atomic
+from tt_drake.referee_rules import RefereeConfig
 
 # The paper's figures (Muelling, Kober, Peters 2010, section III), as fractions.
 PAPER = {
@@ -242,10 +247,6 @@ def pruning_summary(results: dict) -> dict | None:
 
 
 def _plots(run, results: dict) -> list[str]:
-    from tt_drake.diagrams import report_plots as rp
-    from tt_drake.hitting_point import OUTPUT_NAMES, OUTPUT_UNITS
-    from tt_drake.referee_rules import RefereeConfig
-
     folder = run.root / "plots"
     folder.mkdir(exist_ok=True)
     written = []
@@ -264,7 +265,6 @@ def _plots(run, results: dict) -> list[str]:
             folder / "responsibility_learning.png", series,
             xlabel="rollouts", ylabel="per batch", title="Responsibility learning (Algorithm 3)",
             paper={"final success": 0.94, "gamma = 1": 0.67} if paper else None))
-        from tt_drake.artefacts import load_artefact
 
         state, _ = load_artefact(run.root / "responsibility" / "state.npz",
                                  "responsibility-learning")
@@ -338,8 +338,6 @@ def _chunk_episodes(folder: Path) -> list[dict]:
 
 def _partial_final(run) -> dict:
     """The final stage's figures from the chunks finished so far (a run read part-way)."""
-    from tt_drake.diagrams.reproduce import rates
-
     out = {}
     (first, d1), (second, d2) = run.protocol.evaluate
     for key, dist, seed in ((first, d1, run.config.final_seed),
@@ -353,8 +351,6 @@ def _partial_final(run) -> dict:
 
 
 def write_report(run) -> dict:
-    from tt_drake.diagrams.reproduce import STAGES
-
     results = {stage: run.result(stage) for stage in STAGES}
     results = {k: v for k, v in results.items() if v is not None}
     if "final" not in results:
@@ -414,8 +410,6 @@ def _change(value, kind: str) -> str:
 def _player_note(protocol: str) -> list[str]:
     """What the protocol's momp player plays, when it is not the paper's (CrKR, committed at the
     swing start)."""
-    from tt_drake.diagrams.reproduce import PROTOCOLS
-
     chosen = PROTOCOLS[protocol]
     if chosen.configuration == "crkr":
         return []

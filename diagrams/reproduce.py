@@ -61,6 +61,8 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from tt_drake.artefacts import ArtefactError, load_artefact, save_artefact
+from tt_drake.constants import PLANES
 from tt_drake.diagrams.ceiling import (
     STRATEGIES,
     ceiling_summary,
@@ -68,14 +70,30 @@ from tt_drake.diagrams.ceiling import (
     strategy_player,
     strategy_scenario,
 )
-from tt_drake.diagrams.train import HARD_PROFILE, STIFF_HARD_PROFILE
+from tt_drake.diagrams.collect import KIND, MANIFEST, collect, load_dataset
+from tt_drake.diagrams.episodes import episode_seed
+from tt_drake.diagrams.inputs import check_inputs
+from tt_drake.diagrams.parallel import EXECUTORS, default_workers, executor_session, run_episodes
+from tt_drake.diagrams.predictor import eval_predictor, train_predictor
+from tt_drake.diagrams.protocols import PROTOCOLS, STAGES, Protocol, rates
+from tt_drake.diagrams.report import write_report
+from tt_drake.diagrams.scenario import load_scenario
+from tt_drake.diagrams.train import (
+    fit_crkr,
+    library_options,
+    stimulus_of,
+    train_crkr,
+    train_library,
+)
 from tt_drake.errors import BadInputError
+from tt_drake.learned_player import load_player_library, save_player_library
+from tt_drake.mixture_learning import MixtureLearner, PowerParams, explored_weights
 from tt_drake.outputs import claim_folder, portable_path, write_json_atomic
 from tt_drake.provenance import run_provenance
+from tt_drake.responsibility import responsibility_update
+from tt_drake.serves import POOLS, ServeSampler, parse_distribution
 
 CHUNK = 100
-STAGES = ("teacher", "predictor", "library", "crkr", "single", "gamma1", "responsibility",
-          "power", "final")
 
 
 class ReproduceError(ValueError, BadInputError):
@@ -181,77 +199,6 @@ def artefacts_config() -> ReproduceConfig:
                    crkr_serves=30, crkr_max_iterations=1)
 
 
-@dataclass(frozen=True)
-class Protocol:
-    """Which serves a run learns from and is judged on.
-
-    ``train``: the distributions of the teacher's demonstrations and of every learning stage's
-    rollouts (their serves split evenly among them); ``evaluate``: (label, distribution) of the
-    ``final`` stage's two serve sets, with ``final_serves`` / ``final_seed`` and ``real_serves``
-    / ``real_seed``; ``ceiling``: also play every evaluation serve with the oracle teacher
-    (``serve --ceiling``) and give each figure relative to its returnable serves; ``gamma1`` on
-    the evaluation serves instead of its own, so that before and after learning are compared on
-    the same serves; ``ceiling_sets``: the evaluation sets (labels) the ``final`` stage also
-    plays with the oracle teacher when ``ceiling`` is off (the paper profile's real serves: a
-    real-serve rate comes with what could be returned from our mount)."""
-
-    name: str
-    train: tuple[str, ...]
-    evaluate: tuple[tuple[str, str], tuple[str, str]]
-    ceiling: bool = False
-    ceiling_sets: tuple[str, ...] = ()
-    # The library's settings (``tt_drake.diagrams.train.library_options``); empty: the paper's.
-    library: tuple[tuple[str, object], ...] = ()
-    # The GPR's feature set (``tt_drake.hitting_point``), trained on the ``train`` mix when not
-    # the paper's ``states`` (the paper's predictor learns from default serves only).
-    predictor_features: str = "states"
-    # The momp player's hitting DMP follows each new prediction until the cut-off (the moving
-    # goal, ``LearnedPlayerConfig.moving_goal``); the paper profile commits at the swing start.
-    moving_goal: bool = False
-    # The hitting configuration the momp player of the ``single``, ``gamma1``, ``responsibility``,
-    # ``power`` and ``final`` stages uses (``LearnedPlayerConfig.configuration``): ``crkr`` (the
-    # paper's) or ``analytical`` (the teacher's IK). The ``crkr`` stage trains and judges CrKR
-    # either way; the paper profile's ``gamma1`` plays both.
-    configuration: str = "crkr"
-    # What the teacher sees while it demonstrates (``Scenario.perception``). Through the camera
-    # the spin-aware EKF's spin at impact is noisy (median 13.7 rad/s between nearest-neighbour
-    # stimuli vs 4.4 for the oracle), the teacher's racket law turns it into hitting velocities
-    # that the paper's 6-D stimulus cannot explain, and CrKR and the library learn that noise
-    # (docs/reproducing.md, "The teacher's perception"). The players always see the camera.
-    teacher_perception: str = "camera"
-
-    def library_settings(self, config):
-        """The settings the library and CrKR stages read: the protocol's, else ``config``'s."""
-        from types import SimpleNamespace
-
-        return SimpleNamespace(**{**config.to_dict(), **dict(self.library)}) if self.library \
-            else config
-
-
-PROTOCOLS = {
-    # The paper's experiments, on the default launcher (the earlier runs' settings).
-    # Its teacher demonstrates with the oracle's perception, as a human teacher sees the ball.
-    "paper": Protocol("paper", ("default",), (("default", "default"), ("real", "real")),
-                      ceiling_sets=("real",), teacher_perception="oracle"),
-    # Learning has to do something: spinning launcher serves and recorded real serves and rally
-    # balls to learn from, unseen spin seeds and the real serves' test split to be judged on.
-    # Its library imitates the arm's recorded strokes with softer DMPs (the weights decide the
-    # impact), gates and configures on the spin too; its GPR reads the estimated spin. Its player
-    # takes the teacher's IK as the hitting configuration, as the shipped hard set does
-    # (tt_drake.models.ARTEFACT_SETS): with the spin stimulus its CrKR returned 11 of 20 real
-    # serves where the IK returned 20 (docs/learned_player.md); CrKR is still trained and
-    # reported.
-    "hard": Protocol("hard", ("spin", "real-train", "rally-train"),
-                     (("spin", "spin"), ("real-test", "real-test")), ceiling=True,
-                     library=tuple(HARD_PROFILE.items()), predictor_features="states+spin",
-                     moving_goal=True, configuration="analytical"),
-}
-# The hard protocol with the stiffer hitting DMP that made the shipped hard set
-# (``--protocol hard-stiff --sizes artefacts --until crkr``): the same serves, stages and player.
-PROTOCOLS["hard-stiff"] = replace(PROTOCOLS["hard"], name="hard-stiff",
-                                  library=tuple(STIFF_HARD_PROFILE.items()))
-
-
 # ----------------------------------------------------------------------------- run folder
 #: The run folder's format (``DIR/config.json``); see :meth:`Run._prepare`.
 RUN_FORMAT_VERSION = 2
@@ -315,8 +262,6 @@ class Run:
 
     def scenario(self, library: str = "", crkr: str = "", predictor: str = "",
                  configuration: str = "crkr", distribution: str | None = None):
-        from tt_drake.diagrams.scenario import load_scenario
-
         scenario = load_scenario("default")
         learned = scenario.learned
         learned.library, learned.crkr, learned.predictor = library, crkr, predictor
@@ -332,9 +277,6 @@ class Run:
         """Episodes ``episode_seed(seed, i)``, i < serves, as dicts (``EpisodeResult.as_dict``),
         kept in chunk files in ``folder`` so an interrupted stage resumes. ``weights``: None or
         a function of ``i`` giving the momp player's primitive weights for episode ``i``."""
-        from tt_drake.diagrams.episodes import episode_seed
-        from tt_drake.diagrams.parallel import run_episodes
-
         folder.mkdir(parents=True, exist_ok=True)
         n_chunks = -(-serves // CHUNK)
         chunks: dict[int, list] = {}
@@ -367,9 +309,6 @@ class Run:
         """Whether the oracle teacher under ``strategy`` (:mod:`tt_drake.diagrams.ceiling`)
         legally returns the serves ``indices`` (episode ``episode_seed(seed, i)``), kept in
         ``path`` once all are played: a later run with the same indices reads them back."""
-        from tt_drake.diagrams.episodes import episode_seed
-        from tt_drake.diagrams.parallel import run_episodes
-
         try:
             saved = json.loads(path.read_text())
             if saved["indices"] == indices and len(saved["returned"]) == len(indices):
@@ -415,8 +354,6 @@ class Run:
 def _dealt(scenario, distribution: str, seed: int):
     """A copy of ``scenario`` serving ``distribution``; a pool's serves dealt without repeats
     for the base seed ``seed`` (as ``tt-drake serve`` does)."""
-    from tt_drake.serves import POOLS, ServeSampler, parse_distribution
-
     out = copy.deepcopy(scenario)
     out.launcher.distribution = distribution
     out.launcher.run_seed = seed
@@ -426,32 +363,6 @@ def _dealt(scenario, distribution: str, seed: int):
         c = out.launcher
         ServeSampler(distribution, c.spin_max, c.real_serves or None,
                      rally_path=c.rallies or None).pool()
-    return out
-
-
-def rates(episodes: list[dict]) -> dict:
-    """Hit, legal-return and on-target rates and the mean reward of episode dicts."""
-    n = len(episodes)
-    if n == 0:
-        return {"serves": 0}
-    out = {"serves": n}
-    for key, field in (("hit_rate", "hit"), ("return_rate", "returned"),
-                       ("target_rate", "on_target")):
-        out[key] = sum(bool(e[field]) for e in episodes) / n
-    out["mean_reward"] = sum(e["reward"] for e in episodes) / n
-    strokes = [e["stroke"] for e in episodes if "stroke" in e]
-    if strokes:
-        out["fallback_strokes"] = sum(s["fallback"] for s in strokes)
-        # A stroke the teacher's quintics carried (the primitives' plan left the joint or effort
-        # limits) is no success of the motor primitives.
-        carried = [not e.get("stroke", {}).get("fallback", False) for e in episodes]
-        out["momp_return_rate"] = sum(bool(e["returned"]) and c
-                                      for e, c in zip(episodes, carried, strict=True)) / n
-        out["momp_target_rate"] = sum(bool(e["on_target"]) and c
-                                      for e, c in zip(episodes, carried, strict=True)) / n
-        # Strokes whose hitting stage began on an early physical-model prediction, before the
-        # learned predictor's (GPR) final one.
-        out["early_strokes"] = sum(bool(s.get("early_prediction")) for s in strokes)
     return out
 
 
@@ -490,8 +401,6 @@ def credited_reward(episode: dict) -> float:
 
 # ----------------------------------------------------------------------------- stages
 def stage_teacher(run: Run) -> dict:
-    from tt_drake.diagrams.collect import collect
-
     c = run.config
     dists = run.protocol.train
     perception = run.protocol.teacher_perception
@@ -529,9 +438,6 @@ def stage_teacher(run: Run) -> dict:
 def _merge_datasets(folders: list[Path], out: Path) -> float:
     """The teacher datasets in ``folders`` as one dataset in ``out`` (one chunk, serves in
     folder order, re-indexed) that ``tt-drake train`` reads; returns its legal-return rate."""
-    from tt_drake.artefacts import save_artefact
-    from tt_drake.diagrams.collect import KIND, MANIFEST, load_dataset
-
     datasets = [load_dataset(f) for f in folders]
     arrays: dict[str, list] = {}
     offset = 0
@@ -557,8 +463,6 @@ def _merge_datasets(folders: list[Path], out: Path) -> float:
 
 
 def stage_predictor(run: Run) -> dict:
-    from tt_drake.diagrams.predictor import eval_predictor, train_predictor
-
     c = run.config
     folder = run.folder("predictor")
     model = folder / "predictor.npz"
@@ -592,8 +496,6 @@ def stage_predictor(run: Run) -> dict:
 
 
 def stage_library(run: Run) -> dict:
-    from tt_drake.diagrams.train import library_options, train_library
-
     c = run.config
     out = run.folder("library") / "library.npz"
     summary = train_library(run.root / "teacher" / "data", out, c.primitives,
@@ -605,9 +507,6 @@ def stage_library(run: Run) -> dict:
 
 def stage_crkr(run: Run) -> dict:
     """Policy iteration of the CrKR hitting configuration (section III-B.2)."""
-    from tt_drake.constants import PLANES
-    from tt_drake.diagrams.train import fit_crkr, stimulus_of, train_crkr
-
     c = run.config
     folder = run.folder("crkr")
     predictor = str(run.path(run.result("predictor")["model"]))
@@ -768,10 +667,6 @@ def stage_responsibility(run: Run) -> dict:
     """Algorithm 3 in batches: every rollout of a batch uses the batch's gamma; the updates
     (Eqs. 10-11) are applied in rollout order with each rollout's own gating weights nu_i and
     reward. A primitive whose gamma falls below the threshold is pruned (gamma = 0 for good)."""
-    from tt_drake.artefacts import ArtefactError, load_artefact, save_artefact
-    from tt_drake.learned_player import load_player_library
-    from tt_drake.responsibility import responsibility_update
-
     c = run.config
     folder = run.folder("responsibility")
     library, _, _ = load_player_library(run.path(run.result("library")["library"]))
@@ -852,8 +747,6 @@ def _earlier(pruned, usage, success, s, n) -> dict:
 
 def _save_learned_library(run: Run, gamma, state, out) -> None:
     """The library with its learned responsibilities; pruned primitives removed."""
-    from tt_drake.learned_player import load_player_library, save_player_library
-
     library, stages, meta = load_player_library(run.path(run.result("library")["library"]))
     library.gamma, library.s, library.n = gamma.copy(), state["s"].copy(), state["n"].copy()
     library.remove(np.flatnonzero(gamma == 0))
@@ -869,10 +762,6 @@ def stage_power(run: Run) -> dict:
     in rollout order, each rollout's credited reward updates the responsibilities (Eqs. 10-11)
     and joins the importance samplers of the primitives that took part; Eq. 9 updates their
     weights once per batch. Starts from the responsibility stage's library (its gamma, s, n)."""
-    from tt_drake.artefacts import ArtefactError, load_artefact, save_artefact
-    from tt_drake.learned_player import load_player_library
-    from tt_drake.mixture_learning import MixtureLearner, PowerParams, explored_weights
-
     c = run.config
     folder = run.folder("power")
     source = run.result("responsibility")["library"]
@@ -956,8 +845,6 @@ POWER_CURVE = ("rollouts", "mean_reward", "momp_return_rate", "target_rate", "pr
 def _save_power_library(run: Run, source: str, learner, rollouts: int, out) -> None:
     """The responsibility stage's library with the weights, gamma, s and n of Algorithm 3;
     pruned primitives removed."""
-    from tt_drake.learned_player import load_player_library, save_player_library
-
     library, stages, meta = load_player_library(run.path(source))
     library.weights = learner.weights.copy()
     library.gamma, library.s, library.n = learner.gamma.copy(), learner.s.copy(), learner.n.copy()
@@ -1044,11 +931,6 @@ def reproduce(out, quick: bool = False, workers: int | None = None, executor: st
     stage; a run stopped after the ``crkr`` stage (or later, before ``final``) exports the
     library, CrKR and predictor trained so far to ``DIR/artefacts/`` (the primitives with
     gamma = 1 if no learning stage ran)."""
-    from tt_drake.diagrams.inputs import check_inputs
-    from tt_drake.diagrams.parallel import EXECUTORS, default_workers, executor_session
-    from tt_drake.diagrams.report import write_report
-    from tt_drake.diagrams.scenario import load_scenario
-
     if executor not in EXECUTORS:
         raise ReproduceError(f"unknown executor {executor!r}; choose one of "
                              f"{', '.join(EXECUTORS)}")

@@ -8,6 +8,7 @@ among them), loaded with ``yaml_load_typed`` so that a misspelt or unknown field
 
 
 import math
+import xml.etree.ElementTree as ET
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from importlib import resources
@@ -15,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_data, yaml_load_typed
+from pydrake.systems.analysis import GetIntegrationSchemes
 
 from tt_drake.camera_model import CameraConfig
 from tt_drake.constants import MAX_EXCHANGES
@@ -22,9 +24,11 @@ from tt_drake.errors import BadInputError
 from tt_drake.rally_aim import AIMS
 from tt_drake.rally_rules import RallyConfig
 from tt_drake.referee_rules import RefereeConfig
+from tt_drake.serves import DISTRIBUTIONS
 from tt_drake.systems.aerodynamics import AerodynamicsConfig
 from tt_drake.systems.ball_launcher import LauncherConfig
-from tt_drake.systems.world import WorldConfig, is_explicit_path, model_path
+from tt_drake.systems.ball_oracle import PERCEPTIONS
+from tt_drake.systems.world import ModelFileError, WorldConfig, is_explicit_path, model_path
 from tt_drake.wam_params import EFFORT_LIMIT
 
 
@@ -221,29 +225,19 @@ def one_of(*choices: str) -> Check:
 
 
 def _distribution(value):
-    from tt_drake.serves import DISTRIBUTIONS
-
     return one_of(*DISTRIBUTIONS)(value)
 
 
 def _perception(value):
-    from tt_drake.systems.ball_oracle import PERCEPTIONS
-
     return one_of(*PERCEPTIONS)(value)
 
 
 def _integration_scheme(value):
-    from pydrake.systems.analysis import GetIntegrationSchemes
-
     return one_of(*GetIntegrationSchemes())(value)
 
 
 def check_model_file(name: str) -> str | None:
     """A model file that exists and is well-formed XML (URDF and SDFormat both are)."""
-    import xml.etree.ElementTree as ET
-
-    from tt_drake.systems.world import ModelFileError, model_path
-
     try:
         path = model_path(name)
         ET.parse(path)

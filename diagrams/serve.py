@@ -9,8 +9,12 @@ serves over their number) and ``returns_outside_ceiling`` (docs/rules.md).
 """
 
 import copy
+import json
 import sys
+from importlib import resources
+from pathlib import Path
 
+from pydrake.common.yaml import yaml_load_data
 from tqdm import tqdm
 
 from tt_drake.diagrams.ceiling import (
@@ -20,6 +24,8 @@ from tt_drake.diagrams.ceiling import (
     strategy_scenario,
 )
 from tt_drake.diagrams.episodes import ServeDiagram, check_run, episode_seed, summarize
+from tt_drake.diagrams.parallel import run_episodes
+from tt_drake.diagrams.recording import TAIL, Recording
 from tt_drake.diagrams.scenario import Scenario, dump_scenario, resolve_model_paths
 from tt_drake.errors import BadInputError
 from tt_drake.intervals import wilson
@@ -55,8 +61,6 @@ def run_serves(scenario: Scenario, player: str, serves: int, seed: int, html: st
     else:
         diagram = ServeDiagram(scenario, player, log_ball=bool(html))
         if html:
-            from tt_drake.diagrams.recording import Recording
-
             recording = Recording(scenario, diagram.library)
         seeds = (episode_seed(seed, i) for i in range(serves))
         results = serve_episodes(diagram, seeds, recording, progress, player, total=serves)
@@ -85,8 +89,6 @@ def serve_episodes(diagram: ServeDiagram, seeds, recording=None, progress: bool 
         results.append(result)
         returned += bool(result.outcome.returned)
         if recording is not None:
-            from tt_drake.diagrams.recording import TAIL
-
             beliefs = diagram.beliefs
             diagram.extend(TAIL)  # after the result: the bounce after the decided landing
             recording.add(i, result, diagram.poses(), beliefs, result.stroke)
@@ -111,11 +113,6 @@ def scenario_dict(scenario: Scenario) -> dict:
     package, as ``tt_drake/models/learned/library.npz``, not by this machine's path to it. A model
     file given as a path (a scenario built in Python) is recorded by its absolute path, as
     :func:`tt_drake.diagrams.scenario.load_scenario` records it."""
-    from importlib import resources
-    from pathlib import Path
-
-    from pydrake.common.yaml import yaml_load_data
-
     scenario = copy.deepcopy(scenario)
     resolve_model_paths(scenario)
     data = yaml_load_data(dump_scenario(scenario))
@@ -130,8 +127,6 @@ def scenario_dict(scenario: Scenario) -> dict:
 
 def _episodes(scenario, player, seeds: list[int], progress: bool, workers: int,
               label: str | None = None) -> list:
-    from tt_drake.diagrams.parallel import run_episodes
-
     results = []
     bar = tqdm(total=len(seeds), desc=f"serving ({label or player}, {workers} workers)",
                unit="serve", file=sys.stderr, disable=not progress)
@@ -171,8 +166,6 @@ def read_returnable(path: str, data: dict | None) -> list[str | None]:
     """The ``returnable_by`` of every serve of an earlier ``serve --ceiling --json`` run. With
     the new run's ``data``, the file must hold the same serves: the same episode seeds and
     launch states, in order (any player; the bound depends only on the serves)."""
-    import json
-
     try:
         with open(path, encoding="utf-8") as f:
             saved = json.load(f)

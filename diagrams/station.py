@@ -34,17 +34,28 @@ it are those built without it, bit for bit (tests/diagrams/test_recorded_outcome
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field
 
 import numpy as np
 from pydrake.common.value import AbstractValue
+from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
+from pydrake.systems.analysis import ApplySimulatorConfig
 from pydrake.systems.framework import BasicVector, Diagram, DiagramBuilder, LeafSystem
+from pydrake.systems.primitives import MatrixGain
 
+from tt_drake.diagrams.players import ControllerPorts, WorldPorts
 from tt_drake.rally_rules import SIDES, mirror_matrix13
 from tt_drake.referee_rules import Outcome
+from tt_drake.seeds import episode_seed
 from tt_drake.systems.aerodynamics import add_aerodynamics
+from tt_drake.systems.ball_camera import BallCamera
 from tt_drake.systems.ball_launcher import BallLauncher
-from tt_drake.systems.world import World, add_world
+from tt_drake.systems.rally_referee import RallyReferee
+from tt_drake.systems.referee import RacketCentre, Referee
+from tt_drake.systems.wam import RACKET_CENTER_FRAME, add_joint_faults, add_wam_controller
+from tt_drake.systems.world import World, add_world, set_ball_state
+from tt_drake.wam_params import AWAITING
 
 #: The station's name inside the diagrams built on it.
 STATION = "station"
@@ -140,8 +151,6 @@ def add_station(builder: DiagramBuilder, scenario, robots: int = 1, meshcat=None
     instead of ``scenario.world`` (with_robot and with_second_robot follow ``robots`` either
     way). ``camera``: a camera of ``scenario.camera`` on the ball, its frames the
     ``camera_frames`` port (the camera is in ``seeded``)."""
-    import copy
-
     if robots not in (0, 1, 2):
         raise ValueError(f"a station has 0, 1 or 2 robots, not {robots!r}")
     config = copy.copy(world_config if world_config is not None else scenario.world)
@@ -177,14 +186,10 @@ def add_station(builder: DiagramBuilder, scenario, robots: int = 1, meshcat=None
         builder.Connect(ball, referee_system.GetInputPort("ball_state"))
         outputs["rally"] = referee_system.GetOutputPort("rally")
     if robots == 2:
-        from pydrake.systems.primitives import MatrixGain
-
         mirror = builder.AddNamedSystem("mirror_B", MatrixGain(mirror_matrix13()))
         builder.Connect(ball, mirror.get_input_port())
         outputs["ball_state_B"] = mirror.get_output_port()
     if camera:
-        from tt_drake.systems.ball_camera import BallCamera
-
         station_camera = builder.AddNamedSystem("station_camera", BallCamera(scenario.camera))
         builder.Connect(ball, station_camera.get_input_port(0))
         outputs["camera_frames"] = station_camera.GetOutputPort("measurement")
@@ -200,8 +205,6 @@ def add_station(builder: DiagramBuilder, scenario, robots: int = 1, meshcat=None
         if controllers:
             _add_controller(builder, scenario, world, robot, k, robots, station)
     if meshcat is not None:
-        from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
-
         station.visualizer = MeshcatVisualizer.AddToBuilder(
             builder, world.scene_graph, meshcat, MeshcatVisualizerParams())
     return station
@@ -223,9 +226,6 @@ def make_station(scenario, robots: int = 1, meshcat=None, camera: bool = False) 
 
 def _referee(scenario, world: World, end_when_decided: bool):
     """The serve's referee, with the robot's racket and bodies and the table's geometries."""
-    from tt_drake.systems.referee import RacketCentre, Referee
-    from tt_drake.systems.wam import RACKET_CENTER_FRAME
-
     plant, kwargs = world.plant, {}
     if world.robot is not None:
         frame = plant.GetFrameByName(RACKET_CENTER_FRAME, world.robot)
@@ -241,10 +241,6 @@ def _referee(scenario, world: World, end_when_decided: bool):
 
 def _rally_referee(scenario, world: World):
     """The rally's referee, with both robots' racket centres."""
-    from tt_drake.systems.rally_referee import RallyReferee
-    from tt_drake.systems.referee import RacketCentre
-    from tt_drake.systems.wam import RACKET_CENTER_FRAME
-
     plant = world.plant
     centres = tuple(RacketCentre(plant, r, plant.GetFrameByName(RACKET_CENTER_FRAME, r))
                     for r in (world.robot, world.robot_b))
@@ -255,8 +251,6 @@ def _add_controller(builder, scenario, world: World, robot, side: int, robots: i
                     station: Station) -> None:
     """Robot ``side``'s InverseDynamicsController (its desired inputs and commanded torques
     exported) and, for the serve's robot, the scenario's joint faults."""
-    from tt_drake.systems.wam import add_joint_faults, add_wam_controller
-
     c = scenario.controller
     name = "wam_controller" if robots == 1 else f"wam_controller_{SIDES[side]}"
     controller = add_wam_controller(builder, world.plant, robot, c.kp, c.ki, c.kd, name=name,
@@ -281,8 +275,6 @@ def station_ports(diagram, side: int = 0):
     subsystem of the builder the player is added to) or the :class:`Station` of
     :func:`add_station` (its parts in that builder). Robot B's view sees the ball in its own
     frame (``ball_state_B``)."""
-    from tt_drake.diagrams.players import ControllerPorts, WorldPorts
-
     ball = diagram.GetOutputPort("ball_state" if side == 0 else "ball_state_B")
     world = WorldPorts(ball, diagram.GetOutputPort(arm_port(side, "state")),
                        diagram.GetOutputPort(arm_port(side, "acceleration")))
@@ -293,8 +285,6 @@ def station_ports(diagram, side: int = 0):
 
 def awaiting_posture(world: World, root_context) -> None:
     """Every robot of ``world`` at the awaiting posture in ``root_context``."""
-    from tt_drake.wam_params import AWAITING
-
     plant_context = world.plant.GetMyMutableContextFromRoot(root_context)
     for robot in (world.robot, world.robot_b):
         if robot is not None:
@@ -309,11 +299,6 @@ def reset_episode(simulator, initial, simulator_config, seeded: list, world: Wor
     ones before it: a landing point moved 7e-7 m); the seeds: ``seeded[0]``, the launcher, gets
     ``seed`` itself, system k > 0 ``episode_seed(seed, k)``; the ball at the launcher's serve.
     Returns the serve (``tt_drake.serves.Serve``)."""
-    from pydrake.systems.analysis import ApplySimulatorConfig
-
-    from tt_drake.seeds import episode_seed
-    from tt_drake.systems.world import set_ball_state
-
     context = simulator.get_mutable_context()
     context.SetTimeStateAndParametersFrom(initial)
     ApplySimulatorConfig(simulator_config, simulator)

@@ -73,6 +73,7 @@ from tt_drake.stimulus import (
     stimulus_layout,
     stimulus_size,
 )
+from tt_drake.systems.hitting_ik import HITTING_COMFORT
 
 COST_FLOOR = 0.05  # rad^2
 CRKR_BANDWIDTH_SCALE = 3.0
@@ -295,8 +296,6 @@ def fit_crkr(x, q_hit, qd_hit, out, meta: dict, stimulus=PAPER_STIMULUS) -> dict
     write it to ``out`` with ``meta`` (scenario, hitting_y, data provenance); returns a summary.
     Used on the teacher's pairs (``train crkr``) and on a learned player's own successful
     strokes (policy iteration, ``tt-drake reproduce``)."""
-    from tt_drake.systems.hitting_ik import HITTING_COMFORT
-
     check_writable(out)
     x, q_hit, qd_hit = (np.asarray(a, dtype=float) for a in (x, q_hit, qd_hit))
     layout = stimulus_layout(stimulus)

@@ -84,7 +84,7 @@ from tt_drake.stages import (
     plan_stroke,
     within_effort,
 )
-from tt_drake.systems.hitting_ik import SHOULDER
+from tt_drake.systems.hitting_ik import SHOULDER, HittingIK
 from tt_drake.systems.immutable import Immutable
 from tt_drake.systems.stage_player import StagePlanPlayer, remaining
 
@@ -191,8 +191,6 @@ class StrokePlanner:
     def __init__(self, arm=None, config: PlannerConfig | None = None,
                  model: BallModel | None = None):
         if arm is None:
-            from tt_drake.systems.hitting_ik import HittingIK
-
             arm = HittingIK()
         self.arm = arm
         self.config = config or PlannerConfig()

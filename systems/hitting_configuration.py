@@ -42,6 +42,7 @@ from pydrake.systems.framework import LeafSystem
 from tt_drake.learned_player import ConfigurationModel
 from tt_drake.racket_law import racket_for_return
 from tt_drake.stimulus import PAPER_STIMULUS, compose_stimulus
+from tt_drake.systems.analytical_player import StrokePlanner
 
 SOURCES = ("crkr", "analytical")
 _NO_ANSWER = np.zeros(22)
@@ -57,8 +58,6 @@ class HittingConfiguration(LeafSystem):
         if source == "crkr" and model is None:
             raise ValueError("the crkr source needs a trained ConfigurationModel")
         if source == "analytical" and planner is None:
-            from tt_drake.systems.analytical_player import StrokePlanner
-
             planner = StrokePlanner()
         self.source, self.model, self.planner = source, model, planner
         self._p = self.DeclareVectorInputPort("p_hit", 3)

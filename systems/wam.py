@@ -19,13 +19,24 @@ from importlib import resources
 from pathlib import Path
 
 import numpy as np
+from pydrake.common import RandomDistribution, RandomGenerator
 from pydrake.geometry import CollisionFilterDeclaration, GeometrySet, SceneGraph
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.multibody.tree import BodyIndex, ModelInstanceIndex
+from pydrake.multibody.tree import BodyIndex, ModelInstanceIndex, SpatialInertia
+from pydrake.symbolic import Expression, MakeVectorVariable, tanh
 from pydrake.systems.controllers import InverseDynamicsController
 from pydrake.systems.framework import Context, DiagramBuilder
+from pydrake.systems.primitives import (
+    Adder,
+    Demultiplexer,
+    MatrixGain,
+    Multiplexer,
+    RandomSource,
+    SymbolicVectorSystem,
+    ZeroOrderHold,
+)
 
 from tt_drake import wam_params as wp
 from tt_drake.constants import MOUNT
@@ -123,8 +134,6 @@ def scaled_control_context(control_plant: MultibodyPlant, mass_scale: float = 1.
     """A context of ``control_plant`` whose link masses are ``mass_scale`` times the model's and
     whose rotational inertias about each link's centre of mass are ``inertia_scale`` times the
     model's (centres of mass unchanged): the controller's wrong belief about the arm."""
-    from pydrake.multibody.tree import SpatialInertia
-
     context = control_plant.CreateDefaultContext()
     for index in range(1, control_plant.num_bodies()):  # body 0 is the world
         body = control_plant.get_body(BodyIndex(index))
@@ -173,9 +182,6 @@ def joint_friction_system(coulomb, viscous, velocity_scale: float):
 
     The system carries one constant continuous state (zero derivative): Drake 1.51's stateless
     SymbolicVectorSystem fails when a continuous diagram asks it for time derivatives."""
-    from pydrake.symbolic import Expression, MakeVectorVariable, tanh
-    from pydrake.systems.primitives import SymbolicVectorSystem
-
     x = MakeVectorVariable(2 * NUM_JOINTS, "x")
     v = x[NUM_JOINTS:]
     tau = [-float(c) * tanh(v[j] / velocity_scale) - float(b) * v[j]
@@ -195,8 +201,6 @@ class TorqueNoise:
         return self.source.GetMyMutableContextFromRoot(root)
 
     def set_seed(self, context, seed: int) -> None:
-        from pydrake.common import RandomGenerator
-
         self.source.SetRandomContext(context, RandomGenerator(int(seed) % 2**32))
 
 
@@ -211,9 +215,6 @@ def add_joint_faults(builder: DiagramBuilder, plant: MultibodyPlant,
     plant's actuation input, replacing the direct connection :func:`add_wam_controller` made;
     the controller's ``actuation`` output still reports what it commands. Returns the noise's
     seeding handle (None without noise). Nothing is added when every value is zero."""
-    from pydrake.common import RandomDistribution
-    from pydrake.systems.primitives import Adder, MatrixGain, RandomSource
-
     zero = [0.0] * NUM_JOINTS
     coulomb, viscous = list(coulomb or zero), list(viscous or zero)
     noise = list(torque_noise or zero)
@@ -265,8 +266,6 @@ def add_servo_hold(builder: DiagramBuilder, setpoint, controller: InverseDynamic
     feeding a hold evaluates its plan half a period ahead (``setpoint_lead = period / 2``) so that
     the held value is the plan at the middle of its tick: no average lag.
     """
-    from pydrake.systems.primitives import Demultiplexer, Multiplexer, ZeroOrderHold
-
     if isinstance(setpoint, tuple):
         join = builder.AddNamedSystem("servo_setpoint_join", Multiplexer([14, 7]))
         builder.Connect(setpoint[0], join.get_input_port(0))

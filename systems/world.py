@@ -17,13 +17,24 @@ from importlib import resources
 from pathlib import Path
 
 import numpy as np
+from pydrake.math import RigidTransform
+from pydrake.multibody.math import SpatialVelocity
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, MultibodyPlantConfig
 from pydrake.multibody.tree import ModelInstanceIndex
-from pydrake.systems.analysis import Simulator, SimulatorConfig
-from pydrake.systems.framework import DiagramBuilder, EventStatus
+from pydrake.systems.analysis import (
+    ApplySimulatorConfig,
+    Simulator,
+    SimulatorConfig,
+    SimulatorStatus,
+)
+from pydrake.systems.framework import Diagram, DiagramBuilder, EventStatus
 
+from tt_drake.constants import BALL, NET, TABLE
 from tt_drake.errors import BadInputError
+from tt_drake.systems.hitting_ik import REACH_BOUND, SHOULDER
+from tt_drake.systems.wam import BASE_FRAME, add_wam, base_pose_in_world
+from tt_drake.wam_params import RACKET_CENTER_FRAME
 
 
 def default_plant_config() -> MultibodyPlantConfig:
@@ -118,8 +129,6 @@ def add_world(builder: DiagramBuilder, config: WorldConfig | None = None) -> Wor
         name = config.models.ball
         (ball,) = parser.AddModels(str(model_path(name)))
         if config.with_robot:
-            from tt_drake.systems.wam import add_wam
-
             name = config.models.robot
             robot = add_wam(plant, urdf=model_path(name))
             if config.with_second_robot:
@@ -143,9 +152,6 @@ def ball_state_indices(world: World) -> tuple[int, int]:
 
 def set_ball_state(world: World, plant_context, launch_state) -> None:
     """Put the ball at the launch state (p, v, omega) with identity orientation."""
-    from pydrake.math import RigidTransform
-    from pydrake.multibody.math import SpatialVelocity
-
     body = world.ball_body
     world.plant.SetFreeBodyPose(plant_context, body, RigidTransform(list(launch_state[0:3])))
     world.plant.SetFreeBodySpatialVelocity(
@@ -155,8 +161,6 @@ def set_ball_state(world: World, plant_context, launch_state) -> None:
 def find_plant(diagram):
     """The subsystem named ``plant`` of ``diagram`` or, depth first, of a diagram inside it (a
     station nests the plant)."""
-    from pydrake.systems.framework import Diagram
-
     if diagram.HasSubsystemNamed("plant"):
         return diagram.GetSubsystemByName("plant")
     for system in diagram.GetSystems():
@@ -176,8 +180,6 @@ def make_simulator(diagram, config: WorldConfig, plant=None) -> Simulator:
 def simulator_and_schedule(diagram, config: WorldConfig, plant=None):
     """:func:`make_simulator` and its monitor's :class:`ContactAccuracy` (None without one), for
     whoever also advances in segments (:func:`advance_in_segments`) with the same schedule."""
-    from pydrake.systems.analysis import ApplySimulatorConfig
-
     simulator = Simulator(diagram)
     ApplySimulatorConfig(config.simulator, simulator)
     schedule = contact_accuracy(simulator, diagram, config, plant)
@@ -210,10 +212,6 @@ def advance_in_segments(simulator: Simulator, schedule, end: float, period: floa
     pybind wraps the previous wrapper, so a worker that played ~1,000 serves hit Python's
     recursion limit inside the monitor. Returns the last AdvanceTo status (the referee's
     termination ends the loop)."""
-    import math
-
-    from pydrake.systems.analysis import SimulatorStatus
-
     boundary = SimulatorStatus.ReturnReason.kReachedBoundaryTime
     simulator.clear_monitor()
     context = simulator.get_context()
@@ -258,9 +256,6 @@ class ContactAccuracy:
 
     def __init__(self, simulator: Simulator, diagram, contact: float, flight: float,
                  horizon: float = 0.01, plant=None):
-        from tt_drake.constants import BALL, NET, TABLE
-        from tt_drake.wam_params import RACKET_CENTER_FRAME
-
         self._simulator = simulator
         self._plant = plant = plant or find_plant(diagram)
         ball = plant.GetBodyByName("ball")
@@ -277,8 +272,6 @@ class ContactAccuracy:
         # its shoulder, so a ball farther than that (plus the racket's distance) needs no
         # forward kinematics. SHOULDER is in robot A's world frame; another robot's base pose
         # maps it to that robot's shoulder.
-        from tt_drake.systems.hitting_ik import REACH_BOUND, SHOULDER
-        from tt_drake.systems.wam import BASE_FRAME, base_pose_in_world
 
         default = plant.CreateDefaultContext()
         shoulder_in_base = base_pose_in_world().inverse().multiply(np.asarray(SHOULDER, float))

@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.lib import format as npy
 
 from tt_drake.outputs import atomic_file
 
@@ -110,8 +111,6 @@ def _check_declared_sizes(path: Path, fail) -> None:
     """Read each member's ``.npy`` header (not its data): refuse a member whose declared shape
     and dtype need more bytes than it holds, object arrays, and artefacts declaring more than
     :data:`MAX_ARTEFACT_BYTES` in all; so a small file claiming a huge array is never read."""
-    from numpy.lib import format as npy
-
     total = 0
     with zipfile.ZipFile(path) as zf:
         for info in zf.infolist():

@@ -526,7 +526,6 @@ class CompliantBounceBallModel(BallModel):
     def __init__(self, params: BallModelParams | None = None, dt: float = 1e-3,
                  lever_fraction: float = 0.2):
         super().__init__(params, dt)
-        from tt_drake.constants import CONTACT
 
         k_series = 1.0 / (1.0 / CONTACT.ball_stiffness + 1.0 / CONTACT.table_stiffness)
         self._sink_per_speed = math.sqrt(self.params.mass / k_series)  # delta / v_n (s)

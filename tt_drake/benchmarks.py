@@ -7,14 +7,14 @@ as a dependency of scikit-learn).
 
 from __future__ import annotations
 
-import contextlib
 import time
 from typing import Any
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from tt_drake.dmp import HittingDMP
-from tt_drake.momp import MotorPrimitiveLibrary
+from tt_drake.momp import MotorPrimitiveLibrary, scott_bandwidths
 
 __all__ = ["synthetic_library", "bench_momp_planning", "compare_serve_records"]
 
@@ -41,17 +41,8 @@ def synthetic_library(
     stimuli = centre + spread * rng.standard_normal((n_primitives, n_stimulus))
     weights = 100.0 * rng.standard_normal((n_primitives, n_dof, dmp.n_basis))
     amplitude = rng.uniform(0.3, 1.5, (n_primitives, n_dof)) * rng.choice([-1, 1], (1, n_dof))
-    from tt_drake.momp import scott_bandwidths
 
     return MotorPrimitiveLibrary(dmp, weights, amplitude, stimuli, scott_bandwidths(stimuli))
-
-
-def _one_thread():
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # pragma: no cover - optional
-        return contextlib.nullcontext()
-    return threadpool_limits(limits=1)
 
 
 def bench_momp_planning(
@@ -86,7 +77,7 @@ def bench_momp_planning(
     ]
     times = []
     kept = []
-    with _one_thread():
+    with threadpool_limits(limits=1):
         for i, (x, y0, g_f, g_dot) in enumerate(tasks):
             t0 = time.perf_counter()
             traj = lib.plan(x, y0, g_f, g_dot, duration, rate=rate, method=method)

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 
 import numpy as np
 
@@ -197,8 +198,8 @@ class HittingPointGPR:
         """Train on features X (n, 24 or 27: ``feature_set``) and labels Y (n, 7). ``ard``: one
         length scale per input (slow: ~80 s for 200 serves); default one shared length scale on
         the standardised inputs (the paper's Gaussian kernel)."""
-        import warnings
-
+        # scikit-learn's GP adds about a second to every import of this module; only fitting
+        # needs it (a saved predictor predicts with numpy).
         from sklearn.exceptions import ConvergenceWarning
         from sklearn.gaussian_process import GaussianProcessRegressor
         from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel

@@ -7,6 +7,7 @@ folder and is renamed over the destination only when complete.
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import json
 import os
 import tempfile
@@ -98,8 +99,6 @@ class FolderLock:
     file is removed on the last release; one left by a killed process holds no lock."""
 
     def __init__(self, folder: str | os.PathLike, error: type[Exception], what: str = "run"):
-        import fcntl
-
         self.folder = Path(folder)
         self.path = self.folder / LOCK_NAME
         self._key = None

@@ -27,6 +27,8 @@ or when ``max_exchanges`` exchanges have been played (``capped``).
 
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from tt_drake.rally_aim import CompetitiveAim
 from tt_drake.referee_rules import (
     FLOOR_CONTACT,
@@ -60,8 +62,6 @@ def mirror_state13(state) -> list[float]:
 
 def mirror_matrix13():
     """:func:`mirror_state13` as a 13 x 13 matrix (it is linear), for a C++ ``MatrixGain``."""
-    import numpy as np
-
     m = np.zeros((13, 13))
     m[0, 3], m[1, 2], m[2, 1], m[3, 0] = -1.0, -1.0, 1.0, 1.0
     for i in (4, 7, 10):

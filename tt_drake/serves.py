@@ -41,6 +41,7 @@ import numpy as np
 
 from tt_drake.ball_model import BallModel, PlaneCrossing
 from tt_drake.constants import BALL, HITTING_REGION, PLANES, TABLE
+from tt_drake.data import ball_states_path
 from tt_drake.errors import BadInputError
 from tt_drake.seeds import episode_seed
 
@@ -199,8 +200,6 @@ def split_of(record_id: int) -> str:
 def real_serves_path() -> Path:
     """Where ``serves.json`` is read from: $TT_DRAKE_SERVES, else the copy shipped in
     ``tt_drake/data`` (:func:`tt_drake.data.ball_states_path`)."""
-    from tt_drake.data import ball_states_path
-
     return ball_states_path("serves")
 
 
@@ -313,7 +312,6 @@ class ServeSampler:
             return None
         if self._paths[self.kind]:
             return Path(self._paths[self.kind])
-        from tt_drake.data import ball_states_path
 
         return ball_states_path(POOLS[self.kind])
 

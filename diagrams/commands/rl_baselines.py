@@ -145,7 +145,7 @@ def _start_run(args, algorithm: str) -> tuple[Path, dict]:
 def train_sb3(args) -> int:
     """SAC or PPO (Stable-Baselines3's default hyper-parameters except PPO's rollout length and
     initial noise, below), resumed from ``model.zip`` if there is one."""
-    try:
+    try:  # Stable-Baselines3 is the optional rl extra
         import stable_baselines3 as sb3
         from stable_baselines3.common.callbacks import BaseCallback
         from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
@@ -226,7 +226,7 @@ def train_cmaes(args) -> int:
     """CMA-ES (diagonal covariance: hundreds of parameters) on :class:`LinearPolicy`; every
     candidate plays one new serve, its fitness the (shaped) reward; resumed from ``cmaes.json``
     (the distribution's mean and step size; the covariance restarts)."""
-    import cma
+    import cma  # the optional gym extra: only CMA-ES runs need it
 
     folder, config = _start_run(args, "cmaes")
     state_path = folder / "cmaes.json"
@@ -270,7 +270,7 @@ def load_policy(folder: Path, env):
         mean = json.loads((folder / "cmaes.json").read_text())["mean"]
         policy = LinearPolicy(mean, env.observation_space, env.action_space.shape[0])
         return lambda obs: policy(obs).astype(np.float32)
-    import stable_baselines3 as sb3
+    import stable_baselines3 as sb3  # the optional rl extra: only SB3 runs need it
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
     model = {"sac": sb3.SAC, "ppo": sb3.PPO}[config["algorithm"]].load(folder / "model.zip",

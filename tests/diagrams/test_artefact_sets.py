@@ -110,9 +110,7 @@ def test_reproduce_until_crkr_runs_the_training_stages_and_exports_them(tmp_path
     stubs["library"] = stub("library", {"library": "library/library.npz"})
     stubs["crkr"] = stub("crkr", {"best": "crkr/crkr_1.npz"})
     monkeypatch.setattr(rp, "STAGE_FUNCTIONS", stubs)
-    import tt_drake.diagrams.report as report
-
-    monkeypatch.setattr(report, "write_report", lambda run: {})  # the stubs' results are bare
+    monkeypatch.setattr(rp, "write_report", lambda run: {})  # the stubs' results are bare
     rp.reproduce(tmp_path / "run", workers=1, progress=False, config=rp.artefacts_config(),
                  protocol="hard", until="crkr")
     assert ran == ["teacher", "predictor", "library", "crkr"]

@@ -29,6 +29,7 @@ def _blade_slide(use_spin: bool, monkeypatch) -> tuple[float, float]:
     true ball reaches the stroke's hitting plane (m/s, tangential), and the ball's spin there."""
     import numpy as np
 
+    import tt_drake.diagrams.episodes as episodes
     import tt_drake.systems.hitting_configuration as hc
     from tt_drake.constants import BALL
     from tt_drake.diagrams.ball_world import BallOnlyWorld
@@ -40,7 +41,7 @@ def _blade_slide(use_spin: bool, monkeypatch) -> tuple[float, float]:
             super().__init__(*args, use_spin=use_spin and chosen, **kwargs)
 
     chosen = use_spin
-    monkeypatch.setattr(hc, "HittingConfiguration", Chosen)
+    monkeypatch.setattr(episodes, "HittingConfiguration", Chosen)  # what the diagram builds
     scenario = load_scenario()
     use_artefact_set(scenario.learned, "hard")
     scenario.launcher.distribution, scenario.launcher.run_seed = "spin", 2027

@@ -10,6 +10,7 @@ scatter") the serve is returned under either budget (peak 5.6 rad/s)."""
 
 import pytest
 
+import tt_drake.diagrams.episodes as episodes
 import tt_drake.systems.hitting_configuration as hitting_configuration
 import tt_drake.systems.momp_player as momp_player
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
@@ -28,7 +29,7 @@ class _Spinless(hitting_configuration.HittingConfiguration):
 
 @pytest.fixture(autouse=True)
 def _spinless_configuration(monkeypatch):
-    monkeypatch.setattr(hitting_configuration, "HittingConfiguration", _Spinless)
+    monkeypatch.setattr(episodes, "HittingConfiguration", _Spinless)  # what the diagram builds
 
 
 def _serve_135():

@@ -375,7 +375,7 @@ def test_the_teacher_demonstrates_with_its_protocols_perception(tmp_path, monkey
         seen.append((scenario.perception, player))
         return {"return_rate": 1.0}
 
-    monkeypatch.setattr("tt_drake.diagrams.collect.collect", collect)
+    monkeypatch.setattr(rp, "collect", collect)
     monkeypatch.setattr(rp, "_merge_datasets", lambda folders, out: 1.0)
     monkeypatch.setattr(ServeSampler, "pool", lambda self: [])  # no pool is flown here
     run = rp.Run(tmp_path / protocol, rp.quick_config(), quick=True, workers=1, progress=False,

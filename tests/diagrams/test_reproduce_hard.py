@@ -24,9 +24,7 @@ def _stub_stages(monkeypatch):
     ran = []
     stubs = {stage: (lambda run, stage=stage: ran.append(stage) or {}) for stage in rp.STAGES}
     monkeypatch.setattr(rp, "STAGE_FUNCTIONS", stubs)
-    import tt_drake.diagrams.report as report
-
-    monkeypatch.setattr(report, "write_report", lambda run: {})
+    monkeypatch.setattr(rp, "write_report", lambda run: {})
     return ran
 
 
@@ -322,10 +320,6 @@ def test_the_training_and_selection_stages_never_draw_a_test_split(tmp_path, mon
     import shutil
     from importlib import resources
 
-    from tt_drake.diagrams import collect as collect_module
-    from tt_drake.diagrams import predictor as predictor_module
-    from tt_drake.diagrams import train as train_module
-
     run, recorder = _hard_run(tmp_path, monkeypatch, protocol=protocol)
     models = resources.files("tt_drake.models")
     shutil.copy(str(models / "learned-hard" / "library.npz"), run.root / "library" / "library.npz")
@@ -347,11 +341,11 @@ def test_the_training_and_selection_stages_never_draw_a_test_split(tmp_path, mon
         return {"serves": serves, "used": serves, "skipped": 0, "gpr": [{"nmse": 0.1}],
                 "physical": [], "errors": np.zeros(1)}
 
-    monkeypatch.setattr(collect_module, "collect", collect)
+    monkeypatch.setattr(rp, "collect", collect)
     monkeypatch.setattr(rp, "_merge_datasets", lambda folders, out: 1.0)
-    monkeypatch.setattr(predictor_module, "train_predictor", train_predictor)
-    monkeypatch.setattr(predictor_module, "eval_predictor", eval_predictor)
-    monkeypatch.setattr(train_module, "train_crkr", lambda *a, **k: None)
+    monkeypatch.setattr(rp, "train_predictor", train_predictor)
+    monkeypatch.setattr(rp, "eval_predictor", eval_predictor)
+    monkeypatch.setattr(rp, "train_crkr", lambda *a, **k: None)
     for stage in (rp.stage_teacher, rp.stage_predictor, rp.stage_crkr, rp.stage_single,
                   rp.stage_responsibility, rp.stage_power):
         name = stage.__name__.removeprefix("stage_")
