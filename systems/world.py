@@ -272,7 +272,6 @@ class ContactAccuracy:
         # its shoulder, so a ball farther than that (plus the racket's distance) needs no
         # forward kinematics. SHOULDER is in robot A's world frame; another robot's base pose
         # maps it to that robot's shoulder.
-
         default = plant.CreateDefaultContext()
         shoulder_in_base = base_pose_in_world().inverse().multiply(np.asarray(SHOULDER, float))
         self._rackets = []
