@@ -31,8 +31,8 @@ from pydrake.systems.sensors import CameraInfo, RgbdSensor
 
 from tt_drake.diagrams.episodes import EpisodeResult, summarize
 from tt_drake.diagrams.recording import Recording
+from tt_drake.diagrams.station import add_station
 from tt_drake.outputs import write_text_atomic
-from tt_drake.systems.world import add_world
 
 #: Frame size (pixels) and vertical field of view (rad) of ``rgb_array`` frames.
 FRAME_WIDTH, FRAME_HEIGHT, FRAME_FOV = 480, 360, np.pi / 3
@@ -55,7 +55,10 @@ class FrameRenderer:
 
     def __init__(self, world_config, width: int = FRAME_WIDTH, height: int = FRAME_HEIGHT):
         builder = DiagramBuilder()
-        self.world = add_world(builder, world_config)
+        # The station with only its plant: the world built as every diagram builds it.
+        self.world = add_station(builder, None, 1, launcher=False, referee=False,
+                                 aerodynamics=False, controllers=False,
+                                 world_config=world_config).world
         self.world.scene_graph.AddRenderer("vtk", MakeRenderEngineVtk(RenderEngineVtkParams()))
         core = RenderCameraCore("vtk", CameraInfo(width, height, FRAME_FOV),
                                 ClippingRange(0.05, 20.0), RigidTransform())

@@ -1,10 +1,14 @@
 """The station: its named ports, the arm following the desired state given at its inputs, the
 ball seen from robot B through the mirror, and the referee's reward port."""
 
+import ast
+from pathlib import Path
+
 import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
 
+import tt_drake
 from tt_drake.constants import BALL, TABLE
 from tt_drake.diagrams.rally import rally_scenario
 from tt_drake.diagrams.scenario import load_scenario
@@ -85,3 +89,17 @@ def test_the_station_camera_frames_a_resting_ball_where_it_lies():
     frame = station.diagram.GetOutputPort("camera_frames").Eval(context)
     np.testing.assert_allclose(frame[:3], rest, atol=1e-6)  # the ball settles on the table
     assert frame[3] == pytest.approx(5 / 60, abs=1e-12) and frame[4] == 1.0
+
+
+def test_the_station_is_the_only_builder_of_the_world():
+    """Every diagram gets its world (plant, scene graph, table, robots, ball) from the station:
+    no module of the package but ``diagrams/station.py`` calls ``add_world``."""
+    root = Path(tt_drake.__file__).resolve().parent.parent
+    callers = []
+    for path in sorted(p for d in ("tt_drake", "systems", "diagrams")
+                       for p in (root / d).rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+                    and node.func.id == "add_world"):
+                callers.append(path.relative_to(root).as_posix())
+    assert callers == ["diagrams/station.py"]
