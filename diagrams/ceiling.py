@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tt_drake.ball_model import CompliantBounceBallModel
-from tt_drake.constants import BALL, PLANES, TABLE
+from tt_drake.constants import BALL, PLANES, TABLE, TARGET
 from tt_drake.diagrams.episodes import add_analytical_player, add_learned_player
 from tt_drake.diagrams.scenario import LearnedPlayerConfig, Scenario
 from tt_drake.hitting_time import HittingBand, closest_approach
@@ -81,6 +81,14 @@ class OracleStrategy:
         return config
 
 
+#: The reach-in strategies' fallback (m; ``PlannerConfig.reach_in``): a ball just beyond every
+#: stroke the arm makes is met with the blade planned for a point this much nearer the shoulder.
+REACH_IN = (0.03, 0.06, 0.09)
+#: Where on the opponent's court they aim (x, y; m): a blade meeting the ball off its centre
+#: sends it off the planned line, so each aim is a draw of its own.
+REACH_AIMS = (("centre", (TARGET.x, TARGET.y)), ("left", (-0.45, 0.7)), ("right", (0.45, 0.7)),
+              ("short", (0.0, 0.35)), ("deep", (0.0, 1.1)))
+
 #: The strategies of the bound, in the order they are tried (module docstring): the teacher as
 #: it plays (its fallbacks included: strokes compensating half or none of the spin, the ball off
 #: the blade's centre), then hitting higher or lower along the path (the height band) and on
@@ -107,6 +115,8 @@ STRATEGIES: tuple[OracleStrategy, ...] = (
                    noise_stream=1),
     OracleStrategy("hard-set-camera-2", artefacts="hard", band=None, perception="camera",
                    noise_stream=2),
+    *(OracleStrategy(f"reach-{name}", target=target, reach_in=REACH_IN)
+      for name, target in REACH_AIMS),
 )
 
 
