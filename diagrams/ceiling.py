@@ -29,12 +29,17 @@ import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from tt_drake.constants import PLANES, TABLE
+import numpy as np
+
+from tt_drake.ball_model import CompliantBounceBallModel
+from tt_drake.constants import BALL, PLANES, TABLE, TARGET
 from tt_drake.diagrams.episodes import add_analytical_player, add_learned_player
 from tt_drake.diagrams.scenario import LearnedPlayerConfig, Scenario
-from tt_drake.hitting_time import HittingBand
+from tt_drake.hitting_time import HittingBand, closest_approach
 from tt_drake.models import use_artefact_set
-from tt_drake.systems.analytical_player import PlannerConfig
+from tt_drake.systems.analytical_player import PlannerConfig, planner_ball_model
+from tt_drake.systems.hitting_ik import SHOULDER
+from tt_drake.wam_params import reach_bound
 
 
 @dataclass(frozen=True)
@@ -56,6 +61,7 @@ class OracleStrategy:
     artefacts: str | None = None
     perception: str = "oracle"
     noise_stream: int = 0
+    reach_in: tuple[float, ...] = ()
 
     def __post_init__(self):
         if self.perception not in ("oracle", "camera"):
@@ -70,8 +76,18 @@ class OracleStrategy:
         config = PlannerConfig(target_x=x, target_y=y, band=self.band, plane_y=self.plane_y)
         if self.stroke_spins is not None:
             config = dataclasses.replace(config, stroke_spins=self.stroke_spins)
+        if self.reach_in:
+            config = dataclasses.replace(config, reach_in=self.reach_in)
         return config
 
+
+#: The reach-in strategies' fallback (m; ``PlannerConfig.reach_in``): a ball just beyond every
+#: stroke the arm makes is met with the blade planned for a point this much nearer the shoulder.
+REACH_IN = (0.03, 0.06, 0.09)
+#: Where on the opponent's court they aim (x, y; m): a blade meeting the ball off its centre
+#: sends it off the planned line, so each aim is a draw of its own.
+REACH_AIMS = (("centre", (TARGET.x, TARGET.y)), ("left", (-0.45, 0.7)), ("right", (0.45, 0.7)),
+              ("short", (0.0, 0.35)), ("deep", (0.0, 1.1)))
 
 #: The strategies of the bound, in the order they are tried (module docstring): the teacher as
 #: it plays (its fallbacks included: strokes compensating half or none of the spin, the ball off
@@ -99,6 +115,8 @@ STRATEGIES: tuple[OracleStrategy, ...] = (
                    noise_stream=1),
     OracleStrategy("hard-set-camera-2", artefacts="hard", band=None, perception="camera",
                    noise_stream=2),
+    *(OracleStrategy(f"reach-{name}", target=target, reach_in=REACH_IN)
+      for name, target in REACH_AIMS),
 )
 
 
@@ -129,14 +147,38 @@ def strategy_player(strategy: OracleStrategy) -> Callable:
     return add
 
 
+#: How much farther (m) than the racket reaches a serve's path must stay to be beyond reach: room
+#: for the ball model's path against the simulator's (aerodynamics, the compliant contact).
+REACH_MARGIN = 0.05
+
+
+def beyond_reach(launch_state) -> bool:
+    """Whether no point of the serve's path in play on the robot's half comes within the
+    racket's reach: the ball's centre stays farther from the shoulder than
+    :func:`tt_drake.wam_params.reach_bound` + the ball's radius + :data:`REACH_MARGIN`
+    (:func:`tt_drake.hitting_time.closest_approach`, the least of the ball model with the true
+    table and with the planner's larger one, spin included). No arm configuration touches such
+    a ball with the blade, so no strategy need play it and no player can return it."""
+    far = reach_bound() + BALL.radius + REACH_MARGIN
+    state = np.asarray(launch_state, dtype=float)
+    return all(closest_approach(model, state, SHOULDER) > far
+               for model in (CompliantBounceBallModel(dt=2e-3), planner_ball_model(2e-3)))
+
+
 def returnable_by(play: Callable[[OracleStrategy, list[int]], Sequence[bool]], serves: int,
-                  strategies: Sequence[OracleStrategy] = STRATEGIES) -> list[str | None]:
+                  strategies: Sequence[OracleStrategy] = STRATEGIES,
+                  within_reach: Sequence[bool] | None = None) -> list[str | None]:
     """For each serve i < ``serves``, the name of the first strategy that returns it legally,
     or None. ``play(strategy, indices)`` plays the serves ``indices`` (the run's serve indices,
-    ascending) with the oracle teacher under ``strategy`` and says which it returned legally."""
+    ascending) with the oracle teacher under ``strategy`` and says which it returned legally.
+    ``within_reach`` (one per serve; None: all): serves outside it (:func:`beyond_reach`) are
+    not played and are unreturnable."""
+    if within_reach is not None and len(within_reach) != serves:
+        raise ValueError(f"{len(within_reach)} reach flags for {serves} serves")
     found: list[str | None] = [None] * serves
     for strategy in strategies:
-        todo = [i for i in range(serves) if found[i] is None]
+        todo = [i for i in range(serves)
+                if found[i] is None and (within_reach is None or within_reach[i])]
         if not todo:
             break
         returned = list(play(strategy, todo))

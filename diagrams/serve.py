@@ -18,6 +18,7 @@ from pydrake.common.yaml import yaml_load_data
 from tqdm import tqdm
 
 from tt_drake.diagrams.ceiling import (
+    beyond_reach,
     ceiling_summary,
     returnable_by,
     strategy_player,
@@ -32,6 +33,7 @@ from tt_drake.intervals import wilson
 from tt_drake.outputs import check_writable, write_json_atomic, write_text_atomic
 from tt_drake.provenance import run_provenance
 from tt_drake.result_fields import serve_fields
+from tt_drake.systems.ball_launcher import serve_sampler
 
 
 def run_serves(scenario: Scenario, player: str, serves: int, seed: int, html: str | None = None,
@@ -153,6 +155,7 @@ def add_returnable(data: dict, results: list, returnable: list[str | None]) -> N
     """Add the returnable serves (per serve the first oracle strategy that returns it, or None)
     to the run's ``data`` (see :func:`add_ceiling`)."""
     data["summary"].update(ceiling_summary([r.outcome.returned for r in results], returnable))
+    data["summary"]["beyond_reach_serves"] = sum(beyond_reach(r.launch_state) for r in results)
     for episode, by in zip(data["episodes"], returnable, strict=True):
         episode["returnable"] = by is not None
         episode["returnable_by"] = by
@@ -197,7 +200,10 @@ def returnable_serves(scenario: Scenario, serves: int, seed: int, progress: bool
             strategy_scenario(strategy, scenario), strategy_player(strategy), seeds, progress,
             workers, label=f"oracle {strategy.name}")]
 
-    return returnable_by(play, serves)
+    sampler = serve_sampler(scenario.launcher)
+    within = [not beyond_reach(sampler.sample(episode_seed(seed, i)).launch_state)
+              for i in range(serves)]
+    return returnable_by(play, serves, within_reach=within)
 
 
 def _interval(rate: float, n: int) -> str:

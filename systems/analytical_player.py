@@ -108,6 +108,7 @@ class Stroke:
     replans: int = 1
     spin_share: float = 1.0  # of the spin the racket compensates (PlannerConfig.stroke_spins)
     blade_offset: float = 0.0  # m, the contact's distance from the blade centre
+    reach_in: float = 0.0  # m, how far toward the shoulder the stroke was planned (reach_point)
 
 
 @dataclass(frozen=True)
@@ -141,9 +142,19 @@ class PlannerConfig:
     # (the blade is 76 mm in radius, the ball 20 mm): docs/analytical_player.md, "Fallbacks".
     stroke_spins: tuple[float, ...] = (1.0, 0.5, 0.0)
     blade_offsets: tuple[float, ...] = (0.0, 0.03, 0.06)
+    # The last fallback, for a ball just beyond the arm's reach: the stroke planned for the
+    # hitting point moved these distances (m) toward the shoulder (:func:`reach_point`), the
+    # blade's rim meeting the ball. Empty: none (the teacher's; the returnable bound tries it).
+    reach_in: tuple[float, ...] = ()
     # The return's topspin (rad/s; negative: backspin) a brushed stroke makes
     # (tt_drake.spin_stroke); None: the flat stroke, the ball keeping the spin it came with.
     topspin: float | None = None
+    # Waiting at rest for the latest start of a direct hit (:meth:`StrokePlanner.plan`): the
+    # player waits only while a hit started this long after now would still be feasible (s).
+    # The window of start times it leaves is this long: one camera frame is the least, and then
+    # a t_hit that moves a few ms between frames can close it before the player acts; three
+    # frames (docs/analytical_player.md, "Stages").
+    start_margin: float = 3.0 / 60.0
 
 
 #: How much larger than the table the planner's model takes it (m): the launcher serves only onto
@@ -183,6 +194,18 @@ def blade_centre(p_hit, normal, contact_offset: float, offset: float = 0.0) -> n
     d -= (d @ n) * n
     norm = float(np.linalg.norm(d))
     return centre if norm < 1e-9 else centre + offset * d / norm
+
+
+def reach_point(p_hit, distance: float) -> np.ndarray:
+    """The hitting point moved ``distance`` (m) toward the shoulder within the hitting plane:
+    p_hit + distance d / |d|, d = p_shoulder - p_hit with its y component removed."""
+    p_hit = np.asarray(p_hit, dtype=float)
+    if distance == 0.0:
+        return p_hit
+    d = SHOULDER - p_hit
+    d[1] = 0.0
+    norm = float(np.linalg.norm(d))
+    return p_hit.copy() if norm < 1e-9 else p_hit + distance * d / norm
 
 
 class StrokePlanner:
@@ -287,8 +310,13 @@ class StrokePlanner:
             spins = (previous.spin_share, *(x for x in spins if x != previous.spin_share))
             offsets = (previous.blade_offset,
                        *(x for x in offsets if x != previous.blade_offset))
-        found = self._first_feasible(p_hit, v_hit, np.asarray(spin, dtype=float), spins,
-                                     offsets, contact_offset, seed, previous if close else None)
+        found, reach = None, 0.0
+        for reach in (0.0, *self.config.reach_in):
+            found = self._first_feasible(reach_point(p_hit, reach), v_hit,
+                                         np.asarray(spin, dtype=float), spins, offsets,
+                                         contact_offset, seed, previous if close else None)
+            if found is not None:
+                break
         if found is None:
             return None
         share, offset, v_out, flight_time, racket, ik, qd_hit = found
@@ -299,7 +327,7 @@ class StrokePlanner:
                       v_out,
                       racket.normal, racket.velocity, np.asarray(ik.q), np.asarray(qd_hit),
                       ik.position_error, ik.angle_error, float(flight_time), replans,
-                      float(share), float(offset))
+                      float(share), float(offset), float(reach))
 
     def _first_feasible(self, p_hit, v_hit, spin, spins, offsets, contact_offset, seed,
                         previous):
@@ -390,8 +418,8 @@ class StrokePlanner:
     def plan(self, now: float, current: StagePlan, stroke: Stroke) -> StagePlan | None:
         """The current plan up to ``now`` followed by the stroke; None to keep waiting.
 
-        Waiting at rest is safe only while a direct hit started at the next frame would still be
-        feasible; otherwise the hit starts now."""
+        Waiting at rest is safe only while a direct hit started ``config.start_margin`` later
+        would still be feasible; otherwise the hit starts now."""
         preparing = current.stage_at(now) == PREPARATION
         state = current.evaluate(now)
 
@@ -401,7 +429,7 @@ class StrokePlanner:
 
         plan = stroke_from(now, allow_wait=True)
         if plan is None:
-            later = stroke_from(now + 1.0 / 60.0, allow_wait=False)
+            later = stroke_from(now + self.config.start_margin, allow_wait=False)
             if self.feasible(later, now):
                 return None
             plan = stroke_from(now, allow_wait=False)

@@ -55,14 +55,18 @@ class LauncherConfig:
         return out
 
 
+def serve_sampler(config: LauncherConfig) -> ServeSampler:
+    """The sampler that draws ``config``'s serves (episode seed -> launch state)."""
+    return ServeSampler(config.distribution, config.spin_max, config.real_serves or None,
+                        rally_path=config.rallies or None, run_seed=config.run_seed,
+                        x_range=config.x_range, vy_range=config.vy_range)
+
+
 class BallLauncher(LeafSystem):
     def __init__(self, config: LauncherConfig | None = None):
         super().__init__()
         self.config = config or LauncherConfig()
-        c = self.config
-        self.sampler = ServeSampler(c.distribution, c.spin_max, c.real_serves or None,
-                                    rally_path=c.rallies or None, run_seed=c.run_seed,
-                                    x_range=c.x_range, vy_range=c.vy_range)
+        self.sampler = serve_sampler(self.config)
         self._seed_index = self.DeclareNumericParameter(BasicVector([0.0]))
         depends_on_seed = {self.numeric_parameter_ticket(NumericParameterIndex(self._seed_index))}
         self._serve_port = self.DeclareAbstractOutputPort(

@@ -38,10 +38,17 @@ Ports:
 
 Discrete state: ``[n_collected, last_t, observations (4 x 6), p_hit (3), v_hit (3), t_hit,
 valid, final, spin_hit (3), first_bounce, bounces]``; outputs copy slices of it. The last two
-count the ball's bounces on the robot's half as the refreshed predictions see them
-(:class:`tt_drake.hitting_time.BounceCount`, -1: none yet). When the rules leave no hitting
-point (the second bounce seen) the prediction is withdrawn: ``valid`` returns to 0, and a
-learned player not yet in its hitting stage lets the ball go.
+count the ball's bounces on the robot's half, from every estimate
+(:class:`tt_drake.hitting_time.BounceCount`, -1: none yet).
+
+**The rules.** No prediction is published for a point after the ball's second bounce on the
+robot's half (Law 2.10.1.3, a lost point): an early or final prediction whose plane crossing the
+ball model, from the current estimate and the bounces counted, puts after that bounce is
+replaced, with a ``band``, by the band's point before it
+(:func:`tt_drake.hitting_time.choose_hitting_point`), and otherwise withdrawn; a refreshed one
+likewise. A withdrawn prediction sets ``valid`` to 0, and a learned player not yet in its
+hitting stage lets the ball go; the next legal prediction (a later estimate may show the ball
+flying higher) is published again.
 """
 
 import math
@@ -170,8 +177,10 @@ class HittingPointPredictor(LeafSystem):
                                        self.refresh.plane_y, self.band, bounces_behind=bounces)
         if hit is None or hit.bounces:
             return None  # the robot-side bounce is still ahead
-        pred = np.concatenate([hit.position, hit.velocity, [hit.t], hit.spin])
-        moved = (float(np.linalg.norm(pred[:3] - x[_OUT:_OUT + 3])) > self.refresh_tolerance[0]
+        pred = _prediction(hit)
+        # A withdrawn prediction (valid = 0) is replaced by the first legal one.
+        moved = (x[_OUT + 7] == 0.0
+                 or float(np.linalg.norm(pred[:3] - x[_OUT:_OUT + 3])) > self.refresh_tolerance[0]
                  or abs(t + pred[6] - x[_OUT + 6]) > self.refresh_tolerance[1])
         return pred if moved else None
 
@@ -187,31 +196,22 @@ class HittingPointPredictor(LeafSystem):
             new[_OUT + 12] = _NO_BOUNCE
             discrete_state.set_value(self._xd, new)
             return
+        s, spin = self._state.Eval(context), self._spin_value(context)
+        state9 = _with_spin(s, spin)
+        new = x.copy()
+        new[1] = t
         if x[_OUT + 8] == 1.0:
             if self.refresh is None:
                 return _NOTHING
-            new = x.copy()
-            new[1] = t
-            s, spin = self._state.Eval(context), self._spin_value(context)
-            first = x[_OUT + 12]
-            count = count_bounces(self.refresh.model,
-                                  BounceCount(None if first == _NO_BOUNCE else first,
-                                              int(x[_OUT + 13])), _with_spin(s, spin), t)
-            new[_OUT + 12] = _NO_BOUNCE if count.first is None else count.first
-            new[_OUT + 13] = count.count
-            pred = self._refreshed(s, spin, x, t, count.count)
+            bounces = self._count_bounces(x, new, state9, t)
+            pred = self._refreshed(s, spin, x, t, bounces)
             if pred is WITHDRAW:
                 new[_OUT + 7] = 0.0  # no legal hitting point: the prediction is withdrawn
             elif pred is not None:
-                new[_OUT:_OUT + 6] = pred[:6]
-                new[_OUT + 6] = t + pred[6]
-                new[_OUT + 9:_OUT + 12] = pred[7:10]
+                _publish(new, pred, t)
             discrete_state.set_value(self._xd, new)
             return
-        new = x.copy()
-        new[1] = t
-        s = self._state.Eval(context)
-        spin = self._spin_value(context)
+        bounces = self._count_bounces(x, new, state9, t)
         n = int(x[0])
         if s[1] < self.observation_y and s[4] < 0.0:
             new[_OBS + 6 * n:_OBS + 6 * n + 6] = s
@@ -226,16 +226,47 @@ class HittingPointPredictor(LeafSystem):
                 new[0] = 0
             else:
                 new[_OUT + 8] = 1.0
+                pred = self._legal(pred, state9, bounces)
         if pred is None and self.early is not None and s[4] < 0.0:
-            pred = _crossing(self.early, _with_spin(s, spin))
-            if pred is not None and x[_OUT + 7] == 1.0 and not self._moved(x, pred, t):
+            pred = _crossing(self.early, state9)
+            if pred is not None:
+                pred = self._legal(pred, state9, bounces)
+            if (pred is not None and pred is not WITHDRAW and x[_OUT + 7] == 1.0
+                    and not self._moved(x, pred, t)):
                 pred = None
-        if pred is not None:
-            new[_OUT:_OUT + 6] = pred[:6]
-            new[_OUT + 6] = t + pred[6]
-            new[_OUT + 7] = 1.0
-            new[_OUT + 9:_OUT + 12] = pred[7:10]
+        if pred is WITHDRAW:
+            new[_OUT + 7] = 0.0
+        elif pred is not None:
+            _publish(new, pred, t)
         discrete_state.set_value(self._xd, new)
+
+    def _count_bounces(self, x, new, state9, t: float) -> int:
+        """The ball's bounces on the robot's half so far, counted from every estimate
+        (:func:`tt_drake.hitting_time.count_bounces`) and recorded in ``new``."""
+        first = x[_OUT + 12]
+        count = count_bounces(self._spin_model,
+                              BounceCount(None if first == _NO_BOUNCE else first,
+                                          int(x[_OUT + 13])), state9, t)
+        new[_OUT + 12] = _NO_BOUNCE if count.first is None else count.first
+        new[_OUT + 13] = count.count
+        return count.count
+
+    def _legal(self, pred: np.ndarray, state9, bounces: int):
+        """An early or final prediction under the rules (Law 2.10.1.3): ``pred`` itself when the
+        ball model, from the estimate ``state9``, reaches the hitting plane before the ball's
+        second bounce on the robot's half (``bounces``: those it has made); otherwise, with a
+        band, the point :func:`tt_drake.hitting_time.choose_hitting_point` finds before that
+        bounce, and ``WITHDRAW`` when there is none (the ball is let go)."""
+        if bounces < 2:
+            hit = self._spin_model.predict_plane(state9, self._plane_y)
+            if hit is None or robot_bounces_by(hit, bounces) < 2:
+                return pred
+            if self.band is not None:
+                chosen = choose_hitting_point(self._spin_model, state9, self._plane_y, self.band,
+                                              bounces_behind=bounces)
+                if chosen is not None:
+                    return _prediction(chosen)
+        return WITHDRAW
 
     def _moved(self, x, pred, t: float) -> bool:
         """An early prediction farther than ``early_tolerance`` from the published one."""
@@ -252,6 +283,18 @@ def _crossing(physical: PhysicalPredictor, state9) -> np.ndarray | None:
     """``physical``'s prediction (p_hit, v_hit, time to go) with the spin at the plane
     appended; None if the model's ball never reaches the plane."""
     hit = physical.model.predict_plane(state9, physical.plane_y)
-    if hit is None:
-        return None
+    return None if hit is None else _prediction(hit)
+
+
+def _prediction(hit) -> np.ndarray:
+    """A crossing of the ball model as a prediction: (p_hit, v_hit, time to go, spin_hit)."""
     return np.concatenate([hit.position, hit.velocity, [hit.t], hit.spin])
+
+
+def _publish(new: np.ndarray, pred: np.ndarray, t: float) -> None:
+    """Write the prediction ``pred`` (time to go from the estimate's time ``t``) into the
+    state ``new`` as the published one (``valid`` = 1)."""
+    new[_OUT:_OUT + 6] = pred[:6]
+    new[_OUT + 6] = t + pred[6]
+    new[_OUT + 7] = 1.0
+    new[_OUT + 9:_OUT + 12] = pred[7:10]

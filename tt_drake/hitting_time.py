@@ -190,3 +190,27 @@ def choose_hitting_point(model: BallModel, state, plane_y: float = PLANES.hittin
             hit = model.predict_time(s, _fall_through(a, za, va, b, zb, vb, band.z_min))
             return hit if hit.position[1] <= band.y_max else None
     return None
+
+
+def closest_approach(model: BallModel, state, point, max_time: float = 3.0) -> float:
+    """The least distance (m) of the ball's centre from ``point`` while the ball is on the
+    robot's half (y < 0) and in play there: from ``state`` (p, v and optionally omega) until its
+    second bounce on the robot's half (the rules' lost point), its fall to :data:`FALL_Z` or
+    ``max_time``, sampled at the model's steps (a step's travel, ~1 cm at 2 ms, is the
+    sampling's error). Infinite if the ball never reaches the robot's half in play."""
+    s = np.asarray(state, dtype=float).reshape(-1)
+    if s.size == 6:
+        s = np.r_[s, np.zeros(3)]
+    target = np.asarray(point, dtype=float)
+    samples: list[tuple[float, float]] = []  # (t, distance) on the robot's half
+
+    def stop(t, q, _v):
+        if q[1] < 0.0:
+            samples.append((t, float(np.linalg.norm(np.asarray(q) - target))))
+        return q[2] - FALL_Z
+
+    end = model.advance(s, stop, max_time)  # to the fall (None: floor or max_time first)
+    bounces = () if end is None else end.bounces
+    robot = [b.t for b in bounces if b.position[1] < 0.0]
+    until = robot[1] if len(robot) > 1 else np.inf
+    return min((d for t, d in samples if t <= until), default=np.inf)

@@ -101,6 +101,8 @@ SUMMARY_FIELDS: dict = {
                                          "returnable_serves (null if none is returnable)"),
     "returns_outside_ceiling": _scalar("with --ceiling: the player's legal returns of serves the "
                                        "bound calls unreturnable (0 unless the bound is wrong)"),
+    "beyond_reach_serves": _scalar("with --ceiling: serves whose ball never comes within the "
+                                   "racket's reach (unreturnable, not played by the bound)"),
 }
 
 

@@ -253,6 +253,15 @@ def shoulder_pose_in_world() -> np.ndarray:
     return x
 
 
+def reach_bound() -> float:
+    """An upper bound (m) on the distance from the shoulder (DH frame 0's origin) to any point
+    of the racket's blade, whatever the joint angles: by the triangle inequality along the
+    chain, sum_i sqrt(a_i^2 + d_i^2) over the DH rows, plus the blade centre's offset from the
+    flange and the blade's radius (the stretched arm comes within centimetres of it)."""
+    return (sum(math.hypot(row.a, row.d) for row in DH_TABLE) + RACKET.center_offset
+            + RACKET.blade_radius)
+
+
 def racket_center_in_world(q) -> np.ndarray:
     """X_WC: the racket-centre frame (4x4; y axis = racket normal) in the world at angles q."""
     offset = np.eye(4)

@@ -2,12 +2,14 @@
 strategies returns it legally; the strategies are tried in order on what is left, and every
 summary counts the player's returns inside and outside the bound."""
 
+import numpy as np
 import pytest
 
 from tt_drake.diagrams import serve as serve_module
 from tt_drake.diagrams.ceiling import (
     STRATEGIES,
     OracleStrategy,
+    beyond_reach,
     ceiling_summary,
     returnable_by,
     strategy_player,
@@ -16,6 +18,13 @@ from tt_drake.diagrams.episodes import EpisodeResult, ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import Scenario
 from tt_drake.hitting_time import HittingBand
 from tt_drake.referee_rules import Outcome
+from tt_drake.serves import ServeSampler
+from tt_drake.wam_params import (
+    RACKET,
+    racket_center_in_world,
+    reach_bound,
+    shoulder_pose_in_world,
+)
 
 
 def _result(seed, returned):
@@ -159,3 +168,33 @@ def test_a_camera_strategy_sees_the_serve_through_its_own_noise_stream():
         OracleStrategy("own-noise", perception="camera")
     with pytest.raises(ValueError, match="noise stream"):
         OracleStrategy("oracle-noise", noise_stream=3)
+
+
+def test_the_reach_bound_bounds_the_racket_and_is_tight():
+    """No joint angles put the blade farther from the shoulder than ``reach_bound`` (forward
+    kinematics over random angles, limits ignored), and the stretched arm comes within 5 cm."""
+    rng = np.random.default_rng(0)
+    bound = reach_bound()
+    shoulder = shoulder_pose_in_world()[:3, 3]
+    far = max(float(np.linalg.norm(racket_center_in_world(q)[:3, 3] - shoulder))
+              for q in rng.uniform(-np.pi, np.pi, (3000, 7))) + RACKET.blade_radius
+    assert far <= bound < far + 0.05
+
+
+def test_serves_beyond_reach_are_not_played_and_unreturnable():
+    """A serve whose path in play never comes within reach is skipped by every strategy; a
+    default serve (the paper's, returned by the teacher) is within reach."""
+    sampler = ServeSampler("default")
+    assert not beyond_reach(sampler.sample(3).launch_state)
+    wide = np.array([0.0, 1.5, 1.0, 0.9, -5.0, 1.0, 0.0, 0.0, 0.0])  # bounces past the net, leaves wide
+    assert beyond_reach(wide)
+    asked = []
+
+    def play(strategy, indices):
+        asked.append(list(indices))
+        return [True] * len(indices)
+
+    found = returnable_by(play, 3, (OracleStrategy("a"),), within_reach=[True, False, True])
+    assert found == ["a", None, "a"] and asked == [[0, 2]]
+    with pytest.raises(ValueError, match="reach flags"):
+        returnable_by(play, 3, (OracleStrategy("a"),), within_reach=[True])

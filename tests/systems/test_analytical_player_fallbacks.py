@@ -6,7 +6,14 @@ import pytest
 
 from tt_drake import wam_params as wp
 from tt_drake.constants import BALL
-from tt_drake.systems.analytical_player import PlannerConfig, StrokePlanner, blade_centre
+from tt_drake.seeds import episode_seed
+from tt_drake.serves import ServeSampler
+from tt_drake.systems.analytical_player import (
+    PlannerConfig,
+    StrokePlanner,
+    blade_centre,
+    reach_point,
+)
 from tt_drake.systems.hitting_ik import SHOULDER
 
 # A real-train serve after its bounce on the robot's half, heavy topspin (p, v, omega): the
@@ -64,3 +71,65 @@ def test_the_plain_stroke_comes_first_when_the_arm_makes_it(planners):
     assert expected is not None and stroke is not None
     assert (stroke.spin_share, stroke.blade_offset) == (1.0, 0.0)
     np.testing.assert_allclose(stroke.q_hit, expected.q_hit)
+
+
+# A real serve after its bounce on the robot's half (p, v, omega), far to the robot's backhand:
+# its hitting point 0.45 s later (on the band, x = -0.68 m) lies just beyond every stroke the arm
+# makes, with every fallback.
+WIDE = np.array([-0.3152, -0.6409, 0.8268, -0.8769, -2.52, 1.9264, 127.5672, -44.4026, 4.5772])
+
+
+def test_the_reach_point_moves_toward_the_shoulder_within_the_plane():
+    p = np.array([-0.68, -1.69, 0.65])
+    assert np.array_equal(reach_point(p, 0.0), p)
+    moved = reach_point(p, 0.06)
+    assert moved[1] == p[1]  # on the same plane y
+    assert np.linalg.norm(moved - p) == pytest.approx(0.06)
+    to_shoulder = SHOULDER - p
+    to_shoulder[1] = 0.0
+    assert (moved - p) @ to_shoulder == pytest.approx(0.06 * np.linalg.norm(to_shoulder))
+
+
+def test_a_ball_just_beyond_reach_is_met_with_the_blade_planned_nearer(planners):
+    _, teacher = planners
+    reaching = StrokePlanner(arm=teacher.arm, config=PlannerConfig(reach_in=(0.03, 0.06, 0.09)))
+    hit = teacher.model.predict_time(WIDE, 0.45)
+    args = (hit.position, hit.velocity, 0.45, hit.spin, None)
+    assert teacher.stroke(*args) is None
+    stroke = reaching.stroke(*args)
+    assert stroke is not None and stroke.reach_in in (0.03, 0.06, 0.09)
+    # planned for the point moved in: the blade's centre where blade_centre puts it for that
+    # point, the recorded hitting point the predicted one
+    contact = BALL.radius + 0.5 * wp.RACKET.blade_thickness
+    target = blade_centre(reach_point(hit.position, stroke.reach_in), stroke.racket_normal,
+                          contact, stroke.blade_offset)
+    np.testing.assert_allclose(reaching.arm.racket_pose(stroke.q_hit).translation(), target,
+                               atol=2e-4)
+    np.testing.assert_array_equal(stroke.p_hit, hit.position)
+    # the blade (76 mm in radius) still reaches the ball's centre
+    assert np.linalg.norm(target - hit.position) < wp.RACKET.blade_radius + BALL.radius
+
+
+def test_the_start_margin_leaves_the_stroke_a_window_of_several_frames():
+    """A ball whose hit needs a long direct stroke (a rally ball, 0.79 s to go at the launch;
+    its swing-back asks the arm for too much torque): at rest the player waits while a hit
+    started ``start_margin`` later stays feasible. The times at which it starts, rather than
+    waits, then span at least the margin, so a player acting once per camera frame (1/60 s)
+    whose predicted t_hit moves by a few ms between frames still finds one; with a one-frame
+    margin the window is about one frame."""
+    launch = ServeSampler("rally-train", run_seed=5101).sample(
+        episode_seed(5101, 14)).launch_state
+    teacher = StrokePlanner()
+    p_hit, v_hit, t_hit, spin, _ = teacher.predict(launch[:6], 0.0, launch[6:9])
+    stroke = teacher.stroke(p_hit, v_hit, t_hit, spin, None)
+    rest = teacher.awaiting_plan(0.0)
+    step = 0.002
+    for margin in (1.0 / 60.0, 0.05):
+        planner = StrokePlanner(arm=teacher.arm,
+                                config=PlannerConfig(start_margin=margin))
+        starts = [now for now in np.arange(0.0, t_hit - 0.05, step)
+                  if planner.plan(now, rest, stroke) is not None]
+        assert starts, margin
+        window = starts[-1] - starts[0] + step
+        assert margin - step <= window <= margin + 2 * step
+        assert all(np.diff(starts) < 1.5 * step)  # one window

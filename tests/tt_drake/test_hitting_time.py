@@ -10,6 +10,7 @@ from tt_drake.hitting_time import (
     BounceCount,
     HittingBand,
     choose_hitting_point,
+    closest_approach,
     last_robot_bounce,
     robot_bounces_by,
 )
@@ -122,3 +123,23 @@ def test_robot_bounces_by_counts_only_the_robots_half():
                               PLANES.hitting_y)
     assert [round(float(b.position[1]), 2) for b in hit.bounces] == [0.15, -0.52, -1.01]
     assert robot_bounces_by(hit, 0) == 2 and robot_bounces_by(hit, 1) == 3
+
+
+def test_closest_approach_is_the_distance_along_the_path_in_play():
+    """The least distance of the ball's centre from a point while in play on the robot's half:
+    zero (to a step's travel) for a point on the path there, the path's distance for a point
+    beside it, and the path after the second bounce on the robot's half left out."""
+    model = BallModel(dt=2e-3)
+    launch = np.array([0.0, 0.6, 0.95, 0.0, -3.2, -0.5, 0.0, 0.0, 0.0])  # bounces twice short
+    plane = model.predict_plane(launch, PLANES.hitting_y)
+    robot = [b for b in plane.bounces if b.position[1] < 0.0]
+    assert len(robot) == 2
+    between = model.predict_time(launch, 0.5 * (robot[0].t + robot[1].t))
+    step = 2e-3 * float(np.linalg.norm(between.velocity))
+    assert closest_approach(model, launch, between.position) <= step
+    beside = between.position + np.array([0.4, 0.0, 0.0])  # the path runs along x = 0
+    assert closest_approach(model, launch, beside) == pytest.approx(0.4, abs=step)
+    # the plane crossing comes after the second bounce: out of play, so the path in play stays
+    # at least as far from it as its distance to the second bounce's point
+    after = closest_approach(model, launch, plane.position)
+    assert after >= float(np.linalg.norm(plane.position - robot[1].position)) - step
