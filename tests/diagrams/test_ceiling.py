@@ -186,7 +186,8 @@ def test_serves_beyond_reach_are_not_played_and_unreturnable():
     default serve (the paper's, returned by the teacher) is within reach."""
     sampler = ServeSampler("default")
     assert not beyond_reach(sampler.sample(3).launch_state)
-    wide = np.array([0.0, 1.5, 1.0, 0.9, -5.0, 1.0, 0.0, 0.0, 0.0])  # bounces past the net, leaves wide
+    # bounces just past the net and leaves the table wide
+    wide = np.array([0.0, 1.5, 1.0, 0.9, -5.0, 1.0, 0.0, 0.0, 0.0])
     assert beyond_reach(wide)
     asked = []
 
