@@ -231,7 +231,10 @@ def _referee(scenario, world: World, end_when_decided: bool):
         frame = plant.GetFrameByName(RACKET_CENTER_FRAME, world.robot)
         robot_bodies = [plant.get_body(i).index() for i in plant.GetBodyIndices(world.robot)]
         inspector = world.scene_graph.model_inspector()
-        table_ids = [g for g in plant.GetCollisionGeometriesForBody(plant.world_body())
+        # A static model's links are bodies of their own, welded to the world: the table top's
+        # geometries are on the table model's bodies, not on the world body.
+        table_ids = [g for i in plant.GetBodyIndices(world.table)
+                     for g in plant.GetCollisionGeometriesForBody(plant.get_body(i))
                      if inspector.GetName(g).endswith("table_top")]
         kwargs = dict(racket_centre=RacketCentre(plant, world.robot, frame),
                       robot_body_indices=robot_bodies, table_geometry_ids=table_ids)
