@@ -61,7 +61,7 @@ from tt_drake.diagrams.station import (
 from tt_drake.outputs import check_writable, write_json_atomic, write_text_atomic
 from tt_drake.provenance import run_provenance
 from tt_drake.rally_aim import draw_aim
-from tt_drake.rally_rules import SIDES, Exchange, RallyFault, to_side
+from tt_drake.rally_rules import SIDES, Exchange, RallyFault, receiver_after, to_side
 from tt_drake.rally_stats import outgoing_figures
 from tt_drake.systems.wam import hold_first_setpoint
 from tt_drake.systems.world import make_simulator
@@ -283,10 +283,12 @@ def summarize_rallies(results: list[RallyResult]) -> dict:
     """Mean and median rally length (exchanges; a capped rally counts as the cap), how many
     reached the cap, the faults by kind, and per player: its exchange success rate (legal
     returns over the balls it had to return, the rally's first ball from the launcher
-    included) and the same over the balls the other robot sent, and the percentiles of the
-    incoming ball's speed (m/s) and spin |omega| (rad/s) at its strokes and faults, and the
-    figures of the balls it sent (``outgoing``: :func:`tt_drake.rally_stats.outgoing_figures`,
-    speed at the net, topspin share, landing spread)."""
+    included; a ``robot_table`` fault while the other player received is among the faults,
+    not among its balls) and the same over the balls the other robot sent, and the
+    percentiles of the incoming ball's speed (m/s) and spin |omega| (rad/s) at its strokes and
+    faults, and the figures of the balls it sent (``outgoing``:
+    :func:`tt_drake.rally_stats.outgoing_figures`, speed at the net, topspin share, landing
+    spread)."""
     lengths = [r.length for r in results]
     faults: dict[str, int] = {}
     for r in results:
@@ -300,11 +302,14 @@ def summarize_rallies(results: list[RallyResult]) -> dict:
     players = {}
     for k, side in enumerate(SIDES):
         returns = [e for r in results for e in r.exchanges if e.player == k]
-        fails = [r.fault for r in results if r.fault is not None and r.fault.player == k]
+        # A fault ends one of k's balls only if k was receiving (a robot that touches the
+        # table while the other has the ball loses the point, but had no ball to return).
+        lost = [r for r in results if r.fault is not None and r.fault.player == k
+                and receiver_after(r.exchanges) == k]
+        fails = [r.fault for r in lost]
         firsts = sum(1 for r in results for i, e in enumerate(r.exchanges)
                      if e.player == k and i == 0)
-        first_fails = sum(1 for r in results if r.fault is not None and r.fault.player == k
-                          and not r.exchanges)
+        first_fails = sum(1 for r in lost if not r.exchanges)
         attempts = len(returns) + len(fails)
         robot_attempts = attempts - firsts - first_fails
         speeds = [e.incoming_speed for e in returns] + [f.incoming_speed for f in fails]

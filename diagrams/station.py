@@ -184,6 +184,8 @@ def add_station(builder: DiagramBuilder, scenario, robots: int = 1, meshcat=None
         referee_system = station.referee = builder.AddNamedSystem(
             "rally_referee", _rally_referee(scenario, world))
         builder.Connect(ball, referee_system.GetInputPort("ball_state"))
+        builder.Connect(plant.get_contact_results_output_port(),
+                        referee_system.GetInputPort("contact_results"))
         outputs["rally"] = referee_system.GetOutputPort("rally")
     if robots == 2:
         mirror = builder.AddNamedSystem("mirror_B", MatrixGain(mirror_matrix13()))
@@ -229,22 +231,37 @@ def _referee(scenario, world: World, end_when_decided: bool):
     plant, kwargs = world.plant, {}
     if world.robot is not None:
         frame = plant.GetFrameByName(RACKET_CENTER_FRAME, world.robot)
-        robot_bodies = [plant.get_body(i).index() for i in plant.GetBodyIndices(world.robot)]
-        inspector = world.scene_graph.model_inspector()
-        table_ids = [g for g in plant.GetCollisionGeometriesForBody(plant.world_body())
-                     if inspector.GetName(g).endswith("table_top")]
         kwargs = dict(racket_centre=RacketCentre(plant, world.robot, frame),
-                      robot_body_indices=robot_bodies, table_geometry_ids=table_ids)
+                      robot_body_indices=_robot_bodies(plant, world.robot),
+                      table_geometry_ids=_table_top(world))
     return Referee(scenario.referee, scenario.referee_rate, stop_when_decided=end_when_decided,
                    **kwargs)
 
 
 def _rally_referee(scenario, world: World):
-    """The rally's referee, with both robots' racket centres."""
+    """The rally's referee, with both robots' racket centres and bodies and the table's
+    geometries."""
     plant = world.plant
+    robots = (world.robot, world.robot_b)
     centres = tuple(RacketCentre(plant, r, plant.GetFrameByName(RACKET_CENTER_FRAME, r))
-                    for r in (world.robot, world.robot_b))
-    return RallyReferee(scenario.rally, scenario.referee, scenario.referee_rate, centres)
+                    for r in robots)
+    return RallyReferee(scenario.rally, scenario.referee, scenario.referee_rate, centres,
+                        robot_body_indices=tuple(_robot_bodies(plant, r) for r in robots),
+                        table_geometry_ids=_table_top(world))
+
+
+def _robot_bodies(plant, robot) -> list:
+    """The body indices of ``robot``: its arm links and its racket."""
+    return [plant.get_body(i).index() for i in plant.GetBodyIndices(robot)]
+
+
+def _table_top(world: World) -> list:
+    """The table top's collision geometries: those named ``table_top`` on the table model's
+    bodies (a static model's links are bodies of their own, welded to the world)."""
+    plant, inspector = world.plant, world.scene_graph.model_inspector()
+    return [g for i in plant.GetBodyIndices(world.table)
+            for g in plant.GetCollisionGeometriesForBody(plant.get_body(i))
+            if inspector.GetName(g).endswith("table_top")]
 
 
 def _add_controller(builder, scenario, world: World, robot, side: int, robots: int,

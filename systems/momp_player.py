@@ -96,9 +96,9 @@ _NOTHING = EventStatus.DidNothing()
 MOVING_GOAL_CUTOFF = 0.08
 # The effort budget of the player with the moving goal (a multiple of the effort limits; the
 # paper profile's player keeps MoMPConfig.torque_fraction = 1.5). docs/learned_player.md,
-# "Serve 135": a moved goal asking the shoulder 1.0-1.42x its limit for 0.12 s at 9 rad/s made
-# the inverse-dynamics controller diverge (202 rad/s); with 1.2x the same serve is returned
-# without saturating.
+# "Serve 135": with the hard set of 0.1.0, a moved goal asking the shoulder 1.0-1.42x its limit
+# for 0.12 s at 9 rad/s made the inverse-dynamics controller diverge (202 rad/s); with 1.2x the
+# same serve was returned without saturating.
 MOVING_GOAL_TORQUE_FRACTION = 1.2
 
 

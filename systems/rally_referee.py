@@ -3,7 +3,8 @@
 Inputs: ``ball_state`` (13, the plant's state output for the ball, world frame),
 ``robot_a_state`` and ``robot_b_state`` (14 each, the arms' states: the racket centres are
 computed from them by forward kinematics, and only for a contact to classify, as the single-stroke
-:class:`tt_drake.systems.referee.Referee` does).
+:class:`tt_drake.systems.referee.Referee` does), ``contact_results`` (the plant's contact
+results, optional: to see a robot touch the table).
 
 A periodic unrestricted update at ``rate`` Hz samples them. Each sample is taken in the
 receiver's frame (:func:`tt_drake.rally_rules.to_side`) and fed, with the previous one, to the
@@ -11,7 +12,12 @@ same :class:`tt_drake.referee_rules.ContactDetector` as the single-stroke refere
 receiver's racket centre; the receiver's events are judged by
 :func:`tt_drake.rally_rules.decide`. A legal return adds an :class:`Exchange` and hands the ball
 to the other side; the first fault, or ``max_exchanges`` exchanges, ends the rally and the
-simulation (``EventStatus.ReachedTermination``), as does the ball reaching the floor.
+simulation (``EventStatus.ReachedTermination``), as does the ball reaching the floor. Each sample
+first looks at the contacts: a robot body touching the table
+(:func:`tt_drake.referee_rules.table_toucher`, the single-stroke referee's rule) ends the rally
+with that robot's ``robot_table`` fault, whoever was receiving
+(:func:`tt_drake.rally_rules.table_fault`); a ball contact detected in the same sample is not
+judged (which came first is not known at the referee's rate: the touch decides).
 
 Output ``rally``: the :class:`RallyRecord` so far.
 """
@@ -21,6 +27,7 @@ from __future__ import annotations
 import math
 
 from pydrake.common.value import AbstractValue
+from pydrake.multibody.plant import ContactResults
 from pydrake.systems.framework import EventStatus, LeafSystem
 
 from tt_drake.constants import PLANES
@@ -30,6 +37,7 @@ from tt_drake.rally_rules import (
     RallyFault,
     decide,
     opening_event,
+    table_fault,
     to_side,
 )
 from tt_drake.referee_rules import (
@@ -38,9 +46,10 @@ from tt_drake.referee_rules import (
     ContactDetector,
     ContactEvent,
     RefereeConfig,
+    table_toucher,
 )
 from tt_drake.systems.immutable import Immutable
-from tt_drake.systems.referee import RacketAt
+from tt_drake.systems.referee import RacketAt, contact_pairs
 
 
 class RallyRecord(Immutable):
@@ -87,19 +96,27 @@ class _SideRacket(RacketAt):
 class RallyReferee(LeafSystem):
     """``racket_centres``: for each side, a function of its joint positions (7) giving its racket
     centre in the world (:class:`tt_drake.systems.referee.RacketCentre`), or None (scripted
-    tests: any unexplained velocity change away from table, net and floor is then the racket)."""
+    tests: any unexplained velocity change away from table, net and floor is then the racket).
+    ``robot_body_indices``: for each side, its bodies (arm links and racket);
+    ``table_geometry_ids``: the table top's collision geometries (without them, or without the
+    ``contact_results`` input, no touch of the table is seen)."""
 
     def __init__(self, config: RallyConfig | None = None,
                  referee: RefereeConfig | None = None, rate: float = 250.0,
-                 racket_centres=(None, None), stop_below: float = 0.1):
+                 racket_centres=(None, None), stop_below: float = 0.1,
+                 robot_body_indices=((), ()), table_geometry_ids=()):
         super().__init__()
         self.config = config or RallyConfig()
         self.detector = ContactDetector(referee or RefereeConfig())
         self._centres = tuple(racket_centres)
         self._stop_below = stop_below
+        self._robot_bodies = tuple(set(bodies) for bodies in robot_body_indices)
+        self._table_geometries = set(table_geometry_ids)
         self._ball = self.DeclareVectorInputPort("ball_state", 13)
         self._arms = (self.DeclareVectorInputPort("robot_a_state", 14),
                       self.DeclareVectorInputPort("robot_b_state", 14))
+        self._contacts = self.DeclareAbstractInputPort("contact_results",
+                                                       AbstractValue.Make(ContactResults()))
         self._index = self.DeclareAbstractState(AbstractValue.Make(_State()))
         self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, self._update)
         self.DeclareForcedUnrestrictedUpdateEvent(self._update)
@@ -115,6 +132,13 @@ class RallyReferee(LeafSystem):
         racket = None if centre is None or q[side] is None else _SideRacket(q[side], centre, side)
         return (float(t), to_side(side, *p), to_side(side, *v), to_side(side, *w), racket)
 
+    def _table_toucher(self, context) -> int | None:
+        """The side whose robot touches the table now, or None."""
+        if not self._table_geometries or not self._contacts.HasValue(context):
+            return None
+        return table_toucher(contact_pairs(self._contacts.Eval(context)), self._robot_bodies,
+                             self._table_geometries)
+
     def _update(self, context, state):
         old = context.get_abstract_state(self._index).get_value()
         record = old.record
@@ -126,6 +150,13 @@ class RallyReferee(LeafSystem):
         q = self._arm_q(context)
         r = record.receiver
         cur = self._side_sample(t, s[4:7], s[10:13], s[7:10], q, r)
+        toucher = self._table_toucher(context)
+        if toucher is not None:
+            record = RallyRecord(record.exchanges, table_fault(toucher, r, t, old.incoming),
+                                 False, True, r)
+            out.set_value(_State(record, cur, q, old.events, old.started, old.incoming,
+                                 old.outgoing))
+            return EventStatus.ReachedTermination(self, "a robot touched the table")
         if old.sample is None:
             out.set_value(_State(record, cur, q, (), t, None))
             return EventStatus.Succeeded()

@@ -7,7 +7,8 @@ Inputs:
   computed from its joint positions by ``racket_centre`` (:class:`RacketCentre`), and only for the
   samples that the contact detector needs it for (a velocity jump away from the table, the net and
   the floor), not at every sample (docs/performance.md);
-- ``contact_results``: the plant's contact results, to see robot-table contact (optional).
+- ``contact_results``: the plant's contact results, to see robot-table contact (optional;
+  which contact counts: :func:`tt_drake.referee_rules.table_toucher`).
 
 A periodic unrestricted update at ``rate`` Hz (default 250 Hz) samples them; its abstract state
 holds the last sample, the contact events so far and whether the robot touched the table. Output
@@ -39,6 +40,7 @@ from tt_drake.referee_rules import (
     RefereeConfig,
     decides_return,
     judge,
+    table_toucher,
 )
 from tt_drake.systems.immutable import Immutable
 
@@ -51,6 +53,18 @@ class _RefereeState(Immutable):
 
     def __init__(self, sample=None, events=(), touched=False):
         self.sample, self.events, self.touched = sample, events, touched
+
+
+def contact_pairs(results: ContactResults) -> list[tuple]:
+    """The point-pair contacts of the plant's ``results`` as ``(body_A, body_B, geometry_A,
+    geometry_B)`` (body indices, geometry ids): what
+    :func:`tt_drake.referee_rules.table_toucher` reads."""
+    pairs = []
+    for i in range(results.num_point_pair_contacts()):
+        info = results.point_pair_contact_info(i)
+        pair = info.point_pair()
+        pairs.append((info.bodyA_index(), info.bodyB_index(), pair.id_A, pair.id_B))
+    return pairs
 
 
 class RacketCentre:
@@ -134,15 +148,8 @@ class Referee(LeafSystem):
     def _robot_touches_table(self, context) -> bool:
         if not self._table_geometries or not self._contacts.HasValue(context):
             return False
-        results = self._contacts.Eval(context)
-        for i in range(results.num_point_pair_contacts()):
-            pair = results.point_pair_contact_info(i)
-            bodies = (pair.bodyA_index(), pair.bodyB_index())
-            if any(b in self._robot_bodies for b in bodies):
-                ids = (pair.point_pair().id_A, pair.point_pair().id_B)
-                if any(g in self._table_geometries for g in ids):
-                    return True
-        return False
+        pairs = contact_pairs(self._contacts.Eval(context))
+        return table_toucher(pairs, (self._robot_bodies,), self._table_geometries) is not None
 
     def _update(self, context, state):
         old = context.get_abstract_state(self._state_index).get_value()

@@ -21,7 +21,10 @@ its own half. The rally ends at the first fault of the receiver (:func:`decide`)
 - ``no_landing``: nothing decided ``exchange_timeout`` seconds after the exchange began (the ball
   rests or rolls somewhere; ``missed`` if the receiver never hit it);
 
-or when ``max_exchanges`` exchanges have been played (``capped``).
+or when a robot, either of them, touches the table with its arm or racket
+(:data:`tt_drake.referee_rules.ROBOT_TABLE`, the serve's rule:
+:func:`tt_drake.referee_rules.table_toucher`): that robot loses the point (Law 2.10.1), whether
+it was receiving or not; or when ``max_exchanges`` exchanges have been played (``capped``).
 """
 
 
@@ -33,6 +36,7 @@ from tt_drake.rally_aim import CompetitiveAim
 from tt_drake.referee_rules import (
     FLOOR_CONTACT,
     RACKET_CONTACT,
+    ROBOT_TABLE,
     TABLE_CONTACT,
     ContactEvent,
     after_hit,
@@ -123,8 +127,10 @@ class Exchange:
 
 @dataclass(frozen=True)
 class RallyFault:
-    """The fault that ended a rally: whose (the receiver), which kind, when, and the ball it had
-    to return (None if it never came near: speed and spin as in :class:`Exchange`)."""
+    """The fault that ended a rally: whose (the receiver; for ``robot_table`` the robot that
+    touched the table, which may be the other), which kind, when, and the ball it had to return
+    (None if it never came near, or if it was not receiving: speed and spin as in
+    :class:`Exchange`)."""
 
     player: int
     kind: str
@@ -138,6 +144,20 @@ class RallyFault:
                 else round(self.incoming_speed, 4),
                 "incoming_spin": None if self.incoming_spin is None
                 else [round(c, 3) for c in self.incoming_spin]}
+
+
+def table_fault(toucher: int, receiver: int, t: float, incoming=None) -> RallyFault:
+    """The fault of robot ``toucher`` touching the table at ``t`` while ``receiver`` receives:
+    ``robot_table``, that robot's; ``incoming`` ((speed, spin, ...) of the ball the receiver
+    has to return, or None) is recorded only if the toucher was receiving."""
+    speed, spin = incoming[:2] if incoming is not None and toucher == receiver else (None, None)
+    return RallyFault(toucher, ROBOT_TABLE, t, speed, spin)
+
+
+def receiver_after(exchanges) -> int:
+    """Who receives after ``exchanges`` (:class:`Exchange`, in order): A (0) the launcher's
+    ball, then the opponent of the last returner."""
+    return 0 if not exchanges else 1 - exchanges[-1].player
 
 
 def decide(events: list[ContactEvent], t: float, started: float,

@@ -18,10 +18,12 @@ Outcome classes (one per episode), by the ITTF Laws 2.5-2.10 (docs/rules.md):
   landing on the table), ``double_hit``, ``no_landing`` (still in the air at the end).
 
 Independently of the class, ``double_bounce`` is also recorded for a missed ball that bounced
-twice on the robot's half and ``robot_table`` when the robot touched the table; ``net_touch``
-(not a fault) says that the return touched the net assembly. :func:`receiver_bounces` and
-:func:`after_hit` are the two rules every referee reads (this module's :func:`judge`, and the
-rally's :func:`tt_drake.rally_rules.decide`).
+twice on the robot's half and ``robot_table`` (:data:`ROBOT_TABLE`) when the robot touched the
+table; ``net_touch`` (not a fault) says that the return touched the net assembly.
+:func:`receiver_bounces` and :func:`after_hit` are the two rules every referee reads (this
+module's :func:`judge`, and the rally's :func:`tt_drake.rally_rules.decide`), and
+:func:`table_toucher` says, for both, which of the plant's contacts is a robot touching the
+table.
 
 Reward in [0, 1] (the paper's r of Eq. 10 and Algorithm 3, which it does not define further): 0
 when missed; 0.2 for a hit that is not returned; a legal return earns
@@ -48,6 +50,8 @@ from tt_drake.constants import NET, TABLE, TARGET
 # Contact kinds.
 TABLE_CONTACT, NET_CONTACT, FLOOR_CONTACT, RACKET_CONTACT, ROBOT_CONTACT = (
     "table", "net", "floor", "racket", "robot")
+#: The fault of a robot touching the table (the serve's outcome, the rally's fault kind).
+ROBOT_TABLE = "robot_table"
 
 
 @dataclass(frozen=True)
@@ -235,6 +239,27 @@ def decides_return(events, event: ContactEvent) -> bool:
             and any(e.kind == RACKET_CONTACT for e in events))
 
 
+def table_toucher(contacts, robots, table) -> int | None:
+    """Which robot touches the table: the index in ``robots`` of the first robot with a body in
+    contact with a table geometry, or None.
+
+    ``contacts``: the plant's contact pairs, each ``(body_A, body_B, geometry_A, geometry_B)``
+    (body indices and geometry ids, as the plant's contact results give them); ``robots``: per
+    robot, the set of its body indices (every arm link and the racket); ``table``: the set of
+    the table top's geometry ids. A pair counts when one side is a table geometry and the other
+    side's body is a robot's. Every such contact counts, the racket's as well as an arm link's:
+    the Laws (2.10.1) lose the point for a player who moves the playing surface or whose free
+    hand touches it; the simulated table is welded and cannot move, so the touch is the only
+    sign a referee has."""
+    for body_a, body_b, geometry_a, geometry_b in contacts:
+        for body, other in ((body_a, geometry_b), (body_b, geometry_a)):
+            if other in table:
+                for k, bodies in enumerate(robots):
+                    if body in bodies:
+                        return k
+    return None
+
+
 def merge_contacts(events: list[ContactEvent], window: float = 0.012) -> list[ContactEvent]:
     """One event per contact: a contact that straddles samples shows as several events of the
     same kind within a few milliseconds; keep the first."""
@@ -256,7 +281,7 @@ def judge(events: list[ContactEvent], robot_touched_table: bool = False,
     if receiver_bounces(events) >= 2:
         faults.append("double_bounce")
     if robot_touched_table:
-        faults.append("robot_table")
+        faults.append(ROBOT_TABLE)
     if hit_index is None:
         return _scored(Outcome("missed", False, False, False, faults), config)
     hit_time = events[hit_index].t
@@ -290,7 +315,7 @@ def _scored(outcome: Outcome, config: RefereeConfig) -> Outcome:
         reward = 0.2
     else:
         reward = return_reward(outcome.target_distance, config)
-    if "robot_table" in outcome.faults:
+    if ROBOT_TABLE in outcome.faults:
         reward = min(reward, 0.1)
     outcome.reward = reward
     return outcome

@@ -12,7 +12,14 @@ import pytest
 
 from tt_drake.ball_model import BallModel
 from tt_drake.constants import NET, TABLE, TARGET
-from tt_drake.referee_rules import ContactDetector, RefereeConfig, judge
+from tt_drake.rally_rules import Exchange, RallyFault, receiver_after, table_fault
+from tt_drake.referee_rules import (
+    ROBOT_TABLE,
+    ContactDetector,
+    RefereeConfig,
+    judge,
+    table_toucher,
+)
 
 MODEL = BallModel()
 R = MODEL.params.radius
@@ -256,3 +263,57 @@ def test_no_verdict_returns_a_ball_that_bounced_twice_before_the_hit():
         if rally is not None and verdict.hit:
             assert (rally[0] == "returned") == verdict.returned
     assert seen_late_hits > 50
+
+
+# Hand-made contact pairs (body A, body B, geometry A, geometry B), as the referees read the
+# plant's contact results: bodies and geometries by made-up ids.
+TABLE_BODY, BALL, FLOOR_BODY = 1, 2, 3
+ARM_A, RACKET_A, ARM_B, RACKET_B = 8, 10, 18, 20
+ROBOTS = ({6, 7, ARM_A, 9, RACKET_A}, {16, 17, ARM_B, 19, RACKET_B})
+TABLE_TOP = {"table_top"}
+BOUNCE = (BALL, TABLE_BODY, "ball", "table_top")
+
+
+def test_a_robot_body_on_the_table_top_is_the_touch_and_nothing_else_is():
+    """Which contact counts (both referees): a robot body against a table-top geometry, in
+    either order of the pair, the arm's links as well as the racket; the ball on the table, a
+    robot on the net or the floor, and a world without a table top's geometries do not."""
+    assert table_toucher([], ROBOTS, TABLE_TOP) is None
+    assert table_toucher([BOUNCE], ROBOTS, TABLE_TOP) is None
+    assert table_toucher([(RACKET_A, TABLE_BODY, "blade", "net"),
+                          (FLOOR_BODY, ARM_B, "floor", "forearm")], ROBOTS, TABLE_TOP) is None
+    assert table_toucher([(RACKET_A, BALL, "blade", "ball")], ROBOTS, TABLE_TOP) is None
+    on_a = (RACKET_A, TABLE_BODY, "blade", "table_top")
+    on_b = (TABLE_BODY, ARM_B, "table_top", "forearm")
+    assert table_toucher([BOUNCE, on_a], ROBOTS, TABLE_TOP) == 0
+    assert table_toucher([on_b], ROBOTS, TABLE_TOP) == 1
+    assert table_toucher([on_b, on_a], ROBOTS, TABLE_TOP) == 1  # the first pair's robot
+    assert table_toucher([on_a], ROBOTS, set()) is None
+    # The serve's referee: one robot.
+    assert table_toucher([BOUNCE, on_a], ROBOTS[:1], TABLE_TOP) == 0
+    assert table_toucher([on_b], ROBOTS[:1], TABLE_TOP) is None
+
+
+def test_a_touch_over_a_rallys_samples_ends_it_on_the_touchers_point():
+    """The contacts of successive referee samples: the ball bounces, A's racket touches the table
+    while B is receiving. The first sample with the touch gives A's ``robot_table`` fault (A
+    loses the point, though B had the ball), without the ball B had to return; a receiver's own
+    touch keeps the ball it had to return, as its other faults do."""
+    samples = [[], [BOUNCE], [BOUNCE], [], [(TABLE_BODY, RACKET_A, "table_top", "blade")], []]
+    exchanges = [Exchange(0, 0.7, (-0.3, 0.9), 5.0, (0.0, 80.0, 0.0))]
+    receiver = receiver_after(exchanges)
+    assert receiver == 1
+    incoming = (6.0, (1.0, 2.0, 3.0), True)  # B's ball, seen where it crossed B's plane
+    fault = None
+    for k, pairs in enumerate(samples):
+        toucher = table_toucher(pairs, ROBOTS, TABLE_TOP)
+        if toucher is not None:
+            fault = table_fault(toucher, receiver, 0.004 * k, incoming)
+            break
+    assert fault == RallyFault(0, ROBOT_TABLE, 0.016, None, None)
+    assert table_fault(1, 1, 0.016, incoming) == RallyFault(1, ROBOT_TABLE, 0.016, 6.0,
+                                                            (1.0, 2.0, 3.0))
+    assert table_fault(0, 0, 0.2, None) == RallyFault(0, ROBOT_TABLE, 0.2, None, None)
+    assert receiver_after([]) == 0
+    assert receiver_after([*exchanges, Exchange(1, 1.7, (-0.3, 0.9), 5.0, (0.0, 0.0, 0.0))]) == 0
+
