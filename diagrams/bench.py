@@ -42,7 +42,7 @@ from tt_drake.diagrams.parallel import run_episodes
 from tt_drake.diagrams.players import ControllerPorts, check_player
 from tt_drake.diagrams.scenario import ControllerConfig, Scenario
 from tt_drake.diagrams.station import add_station, arm_port
-from tt_drake.serves import ServeSampler
+from tt_drake.serves import serve_sampler
 from tt_drake.systems.wam import add_servo_hold
 from tt_drake.systems.world import RECIPE_FLIGHT_ACCURACY, make_simulator, set_ball_state
 from tt_drake.wam_params import AWAITING
@@ -114,8 +114,7 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
     after serve on every diagram in turn (:func:`_alternate`), so that each per-serve ratio
     compares CPU times measured seconds apart, under the same load."""
     seeds = [episode_seed(seed, i) for i in range(serves)]
-    sampler = ServeSampler(scenario.launcher.distribution, scenario.launcher.spin_max,
-                           scenario.launcher.real_serves or None)
+    sampler = serve_sampler(scenario.launcher)
     t0 = time.perf_counter()
     launch = [sampler.sample(s) for s in seeds]
     sampling = (time.perf_counter() - t0) / serves

@@ -37,6 +37,8 @@ from tt_drake.diagrams.episodes import add_analytical_player, add_learned_player
 from tt_drake.diagrams.scenario import LearnedPlayerConfig, Scenario
 from tt_drake.hitting_time import HittingBand, closest_approach
 from tt_drake.models import use_artefact_set
+from tt_drake.seeds import episode_seed
+from tt_drake.serves import serve_sampler
 from tt_drake.systems.analytical_player import PlannerConfig, planner_ball_model
 from tt_drake.systems.hitting_ik import SHOULDER
 from tt_drake.wam_params import reach_bound
@@ -163,6 +165,15 @@ def beyond_reach(launch_state) -> bool:
     state = np.asarray(launch_state, dtype=float)
     return all(closest_approach(model, state, SHOULDER) > far
                for model in (CompliantBounceBallModel(dt=2e-3), planner_ball_model(2e-3)))
+
+
+def within_reach(scenario: Scenario, serves: int, seed: int) -> list[bool]:
+    """For each serve i < ``serves`` of a run (episode ``episode_seed(seed, i)``, served as
+    ``scenario.launcher`` serves it), whether its ball comes within the racket's reach (not
+    :func:`beyond_reach`): the ``within_reach`` flags of :func:`returnable_by`."""
+    sampler = serve_sampler(scenario.launcher)
+    return [not beyond_reach(sampler.sample(episode_seed(seed, i)).launch_state)
+            for i in range(serves)]
 
 
 def returnable_by(play: Callable[[OracleStrategy, list[int]], Sequence[bool]], serves: int,

@@ -23,6 +23,7 @@ from tt_drake.diagrams.ceiling import (
     returnable_by,
     strategy_player,
     strategy_scenario,
+    within_reach,
 )
 from tt_drake.diagrams.episodes import ServeDiagram, check_run, episode_seed, summarize
 from tt_drake.diagrams.parallel import run_episodes
@@ -33,7 +34,6 @@ from tt_drake.intervals import wilson
 from tt_drake.outputs import check_writable, write_json_atomic, write_text_atomic
 from tt_drake.provenance import run_provenance
 from tt_drake.result_fields import serve_fields
-from tt_drake.systems.ball_launcher import serve_sampler
 
 
 def run_serves(scenario: Scenario, player: str, serves: int, seed: int, html: str | None = None,
@@ -200,10 +200,7 @@ def returnable_serves(scenario: Scenario, serves: int, seed: int, progress: bool
             strategy_scenario(strategy, scenario), strategy_player(strategy), seeds, progress,
             workers, label=f"oracle {strategy.name}")]
 
-    sampler = serve_sampler(scenario.launcher)
-    within = [not beyond_reach(sampler.sample(episode_seed(seed, i)).launch_state)
-              for i in range(serves)]
-    return returnable_by(play, serves, within_reach=within)
+    return returnable_by(play, serves, within_reach=within_reach(scenario, serves, seed))
 
 
 def _interval(rate: float, n: int) -> str:

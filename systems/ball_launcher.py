@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, LeafSystem, NumericParameterIndex
 
-from tt_drake.serves import DEFAULT_VY_RANGE, DEFAULT_X_RANGE, Serve, ServeSampler
+from tt_drake.serves import DEFAULT_VY_RANGE, DEFAULT_X_RANGE, Serve, serve_sampler
 
 
 @dataclass
@@ -53,13 +53,6 @@ class LauncherConfig:
                 out.append(f"{prefix}{name} must be two finite values lo <= hi within "
                            f"[{default[0]}, {default[1]}], got {list(r)}")
         return out
-
-
-def serve_sampler(config: LauncherConfig) -> ServeSampler:
-    """The sampler that draws ``config``'s serves (episode seed -> launch state)."""
-    return ServeSampler(config.distribution, config.spin_max, config.real_serves or None,
-                        rally_path=config.rallies or None, run_seed=config.run_seed,
-                        x_range=config.x_range, vy_range=config.vy_range)
 
 
 class BallLauncher(LeafSystem):

@@ -196,13 +196,13 @@ class HittingPointPredictor(LeafSystem):
             new[_OUT + 12] = _NO_BOUNCE
             discrete_state.set_value(self._xd, new)
             return
+        if x[_OUT + 8] == 1.0 and self.refresh is None:
+            return _NOTHING  # a held final prediction: nothing to read
         s, spin = self._state.Eval(context), self._spin_value(context)
         state9 = _with_spin(s, spin)
         new = x.copy()
         new[1] = t
         if x[_OUT + 8] == 1.0:
-            if self.refresh is None:
-                return _NOTHING
             bounces = self._count_bounces(x, new, state9, t)
             pred = self._refreshed(s, spin, x, t, bounces)
             if pred is WITHDRAW:

@@ -392,6 +392,16 @@ class ServeSampler:
         raise ServeError("no valid serve found in 1000 draws; check the serve configuration")
 
 
+def serve_sampler(config) -> ServeSampler:
+    """The sampler that draws the serves of a launcher configuration
+    (:class:`tt_drake.systems.ball_launcher.LauncherConfig`: distribution, spin_max, data
+    files, run_seed and the default launcher's ranges): episode seed -> launch state, as the
+    launcher draws them."""
+    return ServeSampler(config.distribution, config.spin_max, config.real_serves or None,
+                        rally_path=config.rallies or None, run_seed=config.run_seed,
+                        x_range=config.x_range, vy_range=config.vy_range)
+
+
 def pool_counts(distribution: str, real_path: Path | None = None,
                 rally_path: Path | None = None) -> dict:
     """How many balls a pool distribution's file holds, in its split, and in its pool (those

@@ -19,7 +19,7 @@ from tt_drake.diagrams.players import (
 )
 from tt_drake.errors import BadInputError
 from tt_drake.models import shipped_artefact, use_artefact_set
-from tt_drake.serves import DISTRIBUTIONS, ServeSampler
+from tt_drake.serves import DISTRIBUTIONS, serve_sampler
 
 EXIT_BAD_INPUT = 2
 
@@ -271,9 +271,7 @@ def use_shipped_artefacts(player: str | None, scenario, artefact_set: str | None
 def check_serves(scenario) -> None:
     """Fail with one line before any simulation if the launcher's data file is unusable (a
     split asked of a file without ids, a malformed file)."""
-    c = scenario.launcher
-    ServeSampler(c.distribution, c.spin_max, c.real_serves or None,
-                 rally_path=c.rallies or None).check()
+    serve_sampler(scenario.launcher).check()
 
 
 def check_player_name(name: str) -> None:

@@ -27,7 +27,7 @@ from tt_drake.diagrams.spin_report import (
 )
 from tt_drake.models import shipped_artefact
 from tt_drake.outputs import check_writable, write_json_atomic
-from tt_drake.serves import ServeError, ServeSampler
+from tt_drake.serves import ServeError, serve_sampler
 
 
 def read_returnable(path: str | None, seed: int, distribution: str,
@@ -79,9 +79,7 @@ def main(argv=None) -> int:
             scenario.launcher.distribution = args.distribution
             validate(scenario, "--distribution")
         scenario.launcher.run_seed = args.seed  # the serves of ``tt-drake serve --seed S``
-        c = scenario.launcher
-        ServeSampler(c.distribution, c.spin_max, c.real_serves or None,
-                     rally_path=c.rallies or None).check()  # a split of a file without ids
+        serve_sampler(scenario.launcher).check()  # a split of a file without ids
         if args.player == "momp" and not scenario.learned.library:
             learned = scenario.learned
             learned.library, learned.crkr, learned.predictor = (

@@ -50,7 +50,7 @@ from tt_drake.diagrams.bench import ReferenceDiagram, _alternate, _record_setpoi
 from tt_drake.diagrams.episodes import ServeDiagram, connect_hitting_chain, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.models import use_artefact_set
-from tt_drake.serves import ServeSampler
+from tt_drake.serves import serve_sampler
 from tt_drake.systems.immutable import Immutable
 from tt_drake.systems.wam import add_servo_hold
 from tt_drake.wam_params import AWAITING, PLANNING_RATE, SERVO_PERIOD
@@ -309,8 +309,7 @@ def main() -> None:
               for name, how in (("floor-player", (False,)), ("floor", (True,)),
                                 ("floor-60hz", (True, True)))}
     floors["floor-merged"] = merged_floor_diagram(scenario)
-    sampler = ServeSampler(scenario.launcher.distribution, scenario.launcher.spin_max,
-                           scenario.launcher.real_serves or None)
+    sampler = serve_sampler(scenario.launcher)
     launch = [sampler.sample(s).launch_state for s in seeds]
 
     def run_replay(i):
