@@ -16,10 +16,11 @@ import multiprocessing
 import os
 from collections.abc import Callable, Iterable, Iterator
 
+from tt_drake.blas import one_blas_thread
 from tt_drake.diagrams.episodes import EpisodeResult, ServeDiagram
 from tt_drake.diagrams.ray_executor import ray_session, run_ray
 from tt_drake.diagrams.scenario import Scenario
-from tt_drake.diagrams.workers import ExecutorError, one_blas_thread, run_one
+from tt_drake.diagrams.workers import ExecutorError, run_one
 
 _WORKER: dict = {}
 

@@ -18,9 +18,10 @@ from collections.abc import Callable, Iterator
 
 from pydrake.common.yaml import yaml_load_typed
 
+from tt_drake.blas import one_blas_thread
 from tt_drake.diagrams.episodes import EpisodeResult
 from tt_drake.diagrams.scenario import Scenario, dump_scenario
-from tt_drake.diagrams.workers import ExecutorError, one_blas_thread, run_one
+from tt_drake.diagrams.workers import ExecutorError, run_one
 
 IN_FLIGHT = 2  # episodes queued per actor
 

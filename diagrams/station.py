@@ -44,6 +44,7 @@ from pydrake.systems.analysis import ApplySimulatorConfig
 from pydrake.systems.framework import BasicVector, Diagram, DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import MatrixGain
 
+from tt_drake.blas import one_blas_thread
 from tt_drake.diagrams.players import ControllerPorts, WorldPorts
 from tt_drake.rally_rules import SIDES, mirror_matrix13
 from tt_drake.referee_rules import Outcome
@@ -150,9 +151,12 @@ def add_station(builder: DiagramBuilder, scenario, robots: int = 1, meshcat=None
     with only the plant may have ``scenario`` None). ``world_config``: the world's settings
     instead of ``scenario.world`` (with_robot and with_second_robot follow ``robots`` either
     way). ``camera``: a camera of ``scenario.camera`` on the ball, its frames the
-    ``camera_frames`` port (the camera is in ``seeded``)."""
+    ``camera_frames`` port (the camera is in ``seeded``). The process's BLAS runs one thread
+    from here on, for the players built on the station too (:func:`tt_drake.blas.one_blas_thread`,
+    :func:`reset_episode`)."""
     if robots not in (0, 1, 2):
         raise ValueError(f"a station has 0, 1 or 2 robots, not {robots!r}")
+    one_blas_thread()
     config = copy.copy(world_config if world_config is not None else scenario.world)
     config.with_robot, config.with_second_robot = robots >= 1, robots == 2
     world = add_world(builder, config)
@@ -315,7 +319,10 @@ def reset_episode(simulator, initial, simulator_config, seeded: list, world: Wor
     ``simulator_config`` (its step-size history would otherwise make an episode depend on the
     ones before it: a landing point moved 7e-7 m); the seeds: ``seeded[0]``, the launcher, gets
     ``seed`` itself, system k > 0 ``episode_seed(seed, k)``; the ball at the launcher's serve.
-    Returns the serve (``tt_drake.serves.Serve``)."""
+    Returns the serve (``tt_drake.serves.Serve``). The process's BLAS runs one thread from
+    here on (:func:`tt_drake.blas.one_blas_thread`), so that an episode gives the same bits in
+    a worker process and in this one, whatever its caller did to BLAS since the build."""
+    one_blas_thread()
     context = simulator.get_mutable_context()
     context.SetTimeStateAndParametersFrom(initial)
     ApplySimulatorConfig(simulator_config, simulator)

@@ -30,3 +30,21 @@ def test_each_worker_runs_blas_with_one_thread():
                                 make_diagram=_ThreadReport))
     assert [r[0] for r in reports] == [3, 4, 5, 6]
     assert all(r[1] == 1 and r[2] == "1" for r in reports)
+
+
+def test_an_episode_gives_the_same_bits_in_this_process_as_in_a_worker():
+    """Summation order follows the BLAS thread count, so the GPR's and CrKR's arithmetic, and
+    through them a stroke, would differ between a parent process running BLAS on several
+    threads and a worker running one: every episode runs its BLAS with one thread."""
+    from threadpoolctl import threadpool_limits
+
+    from tests.data.make_recorded_outcomes import SERVE_SEED, serve_record, serve_scenario
+    from tt_drake.seeds import episode_seed
+
+    scenario = serve_scenario("momp", "paper", "real-train")
+    seeds = [episode_seed(SERVE_SEED, i) for i in (2, 7)]
+    threadpool_limits(limits=2)  # as a parent process on two cores runs its BLAS
+    here = [serve_record(r) for r in run_episodes(scenario, "momp", seeds, workers=1)]
+    assert _blas_threads() == 1
+    there = [serve_record(r) for r in run_episodes(scenario, "momp", seeds, workers=2)]
+    assert here == there
