@@ -888,6 +888,8 @@ def _export_artefacts(run: Run, library: str, until: str | None = None) -> dict:
         f" --sizes {sizes}" if sizes not in (None, "full", "quick") else "") + (
         f" --until {until}" if until else "")
     provenance = {"command": command, "protocol": run.protocol.name,
+                  "player": {"configuration": run.protocol.configuration,
+                             "moving_goal": run.protocol.moving_goal},
                   "config": run.config.to_dict(), **run_provenance(),
                   "sources": {name: run.rel(run.path(source)) for name, source in sources.items()}}
     write_json_atomic(folder / "provenance.json", provenance)

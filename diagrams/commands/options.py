@@ -9,6 +9,7 @@ only when a command runs.
 import argparse
 import sys
 from collections.abc import Callable
+from pathlib import Path
 
 from tt_drake.constants import MAX_SEED, MAX_SERVES
 from tt_drake.diagrams.players import (
@@ -18,7 +19,7 @@ from tt_drake.diagrams.players import (
     registered_player,
 )
 from tt_drake.errors import BadInputError
-from tt_drake.models import shipped_artefact, use_artefact_set
+from tt_drake.models import exported_artefact_set, shipped_artefact, use_artefact_set
 from tt_drake.serves import DISTRIBUTIONS, serve_sampler
 
 EXIT_BAD_INPUT = 2
@@ -84,6 +85,15 @@ def one_of(what: str, names: tuple[str, ...]) -> Callable[[str], str]:
         return text
     check.__name__ = what
     return check
+
+
+def artefact_set_or_folder(text: str) -> str:
+    """An argparse ``type`` for ``--artefacts``: a shipped set's name or an existing folder
+    (checked as an exported set when the scenario is made)."""
+    if text not in ARTEFACT_SET_NAMES and not Path(text).is_dir():
+        raise argparse.ArgumentTypeError(f"{text!r} is neither an artefact set "
+                                         f"({', '.join(ARTEFACT_SET_NAMES)}) nor a folder")
+    return text
 
 
 def bounded_float(low: float, high: float | None) -> Callable[[str], float]:
@@ -186,12 +196,14 @@ def add_learned_options(p: argparse.ArgumentParser, artefact_sets: bool = True) 
                                            "serve task the shipped CrKR model learned)"))
     if not artefact_sets:
         return
-    p.add_argument("--artefacts", default=None, type=one_of("artefact set", ARTEFACT_SET_NAMES),
-                   choices=ARTEFACT_SET_NAMES,
-                   help="learned players: the shipped artefact set to play with when no file "
-                        "is named (paper: tt_drake/models/learned/, the default; hard: "
+    p.add_argument("--artefacts", default=None, type=artefact_set_or_folder,
+                   metavar="{" + ",".join(ARTEFACT_SET_NAMES) + "} or DIR",
+                   help="learned players: the artefact set to play with when no file is named "
+                        "(paper: tt_drake/models/learned/, the default; hard: "
                         "tt_drake/models/learned-hard/, trained on spin, real and rally serves, "
-                        "played with the hitting DMP's moving goal)")
+                        "played with the hitting DMP's moving goal; DIR: a set tt-drake "
+                        "reproduce exported to DIR/artefacts, played with its protocol's "
+                        "settings)")
 
 
 def add_perception_option(p: argparse.ArgumentParser) -> None:
@@ -262,10 +274,16 @@ def use_shipped_artefacts(player: str | None, scenario, artefact_set: str | None
     if not plays_learned_artefacts(player) or named:
         return
     chosen = artefact_set or "paper"
-    use_artefact_set(learned, chosen, configuration_given or player == "crkr")
-    print(f"tt-drake: the {player} player uses the shipped artefacts in "
-          f"{shipped_artefact('library', chosen).parent} (hitting configuration: "
-          f"{learned.configuration})", file=sys.stderr)
+    if chosen in ARTEFACT_SET_NAMES:
+        use_artefact_set(learned, chosen, configuration_given or player == "crkr")
+        where = f"the shipped artefacts in {shipped_artefact('library', chosen).parent}"
+    else:
+        use_artefact_set(learned, exported_artefact_set(chosen),
+                         configuration_given or player == "crkr")
+        where = f"the exported artefacts in {chosen}"
+    print(f"tt-drake: the {player} player uses {where} (hitting configuration: "
+          f"{learned.configuration}, moving goal: {'on' if learned.moving_goal else 'off'})",
+          file=sys.stderr)
 
 
 def check_serves(scenario) -> None:

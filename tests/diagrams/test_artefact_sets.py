@@ -1,4 +1,4 @@
-"""The shipped artefact sets (``--artefacts paper|hard``): which files and player settings a set
+"""The artefact sets (``--artefacts paper|hard|DIR``): which files and player settings a set
 stands for, that the hard set loads (no pickle) with its recorded layouts, and bad input."""
 
 import shutil
@@ -121,6 +121,8 @@ def test_reproduce_until_crkr_runs_the_training_stages_and_exports_them(tmp_path
     provenance = json.loads((art / "provenance.json").read_text())
     assert provenance["command"] == ("tt-drake reproduce --protocol hard --sizes artefacts "
                                      "--until crkr")
+    # the settings the hard protocol's player plays it with: --artefacts DIR reads them
+    assert provenance["player"] == {"configuration": "analytical", "moving_goal": True}
     with pytest.raises(rp.ReproduceError, match="unknown stage"):
         rp.reproduce(tmp_path / "other", workers=1, progress=False, until="rehearsal")
 
@@ -156,3 +158,62 @@ def test_reproduce_sizes_and_stages_named_in_the_cli_are_the_modules():
     assert set(rp.SIZES) == {"full", "quick", "artefacts"}
     assert rp.SIZES["quick"]() == rp.quick_config()
     assert main(["reproduce", "--out", "x", "--quick", "--sizes", "artefacts"]) == 2
+
+
+def _exported(tmp_path, player):
+    """A folder laid out as ``tt-drake reproduce`` exports a set: the hard set's three files and
+    a provenance naming ``player``."""
+    import json
+
+    folder = tmp_path / "artefacts"
+    folder.mkdir()
+    for kind, name in SHIPPED_ARTEFACTS.items():
+        shutil.copyfile(shipped_artefact(kind, "hard"), folder / name)
+    (folder / "provenance.json").write_text(json.dumps(
+        {"command": "tt-drake reproduce --protocol hard", "protocol": "hard", "player": player}))
+    return folder
+
+
+def test_an_exported_set_plays_with_the_settings_its_provenance_names(tmp_path, capsys):
+    parser = build_parser()
+    folder = _exported(tmp_path, {"configuration": "analytical", "moving_goal": True})
+    learned = scenario_from_options(parser.parse_args(
+        ["serve", "--player", "momp", "--artefacts", str(folder)])).learned
+    assert (learned.library, learned.crkr, learned.predictor) == tuple(
+        str(folder.resolve() / name) for name in SHIPPED_ARTEFACTS.values())
+    assert learned.moving_goal and learned.configuration == "analytical"
+    assert f"exported artefacts in {folder}" in capsys.readouterr().err
+    (tmp_path / "p").mkdir()
+    paper = _exported(tmp_path / "p", {"configuration": "crkr", "moving_goal": False})
+    learned = scenario_from_options(parser.parse_args(
+        ["serve", "--player", "momp", "--artefacts", str(paper)])).learned
+    assert not learned.moving_goal and learned.configuration == "crkr"
+
+
+@pytest.mark.parametrize("damage", ["no-folder", "no-crkr", "no-player", "bad-player"])
+def test_a_folder_that_is_no_exported_set_is_one_line_exit_2(tmp_path, capsys, damage):
+    import json
+
+    folder = _exported(tmp_path, {"configuration": "analytical", "moving_goal": True})
+    if damage == "no-folder":
+        folder = tmp_path / "nowhere"
+    elif damage == "no-crkr":
+        (folder / "crkr.npz").unlink()
+    elif damage == "no-player":
+        (folder / "provenance.json").write_text(json.dumps({"protocol": "hard"}))
+    else:
+        (folder / "provenance.json").write_text(json.dumps(
+            {"player": {"configuration": "oracle", "moving_goal": True}}))
+    out = tmp_path / "out.json"
+    argv = ["serve", "--player", "momp", "--artefacts", str(folder), "--serves", "1", "--json",
+            str(out), "--quiet"]
+    if damage == "no-folder":  # an option error: argparse's exit
+        with pytest.raises(SystemExit) as exit_:
+            main(argv)
+        assert exit_.value.code == 2
+    else:
+        assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and not out.exists()
+    assert {"no-folder": "nor a folder", "no-crkr": "crkr.npz", "no-player": "player",
+            "bad-player": "oracle"}[damage] in err[0]
