@@ -16,6 +16,7 @@ from tt_drake.diagrams.predictor import (
     model_vs_drake,
     run_pipeline,
 )
+from tt_drake.diagrams.python_calls import count_drake_calls
 from tt_drake.estimation import BallFlightEKF, EstimatorConfig
 from tt_drake.hitting_point import PhysicalPredictor
 from tt_drake.hitting_time import HittingBand
@@ -34,7 +35,7 @@ def step(system, context, t):
     """One periodic discrete update at time t, applied to the context."""
     context.SetTime(t)
     xd = system.EvalUniquePeriodicDiscreteUpdate(context)
-    context.SetDiscreteState(xd.get_vector(0).CopyToVector())
+    context.get_mutable_discrete_state().SetFrom(xd)
 
 
 def test_camera_without_noise_reports_the_true_position():
@@ -105,7 +106,7 @@ def test_ticks_without_a_new_frame_or_estimate_report_that_they_did_nothing():
     status = est._update(ctx, values)
     assert status is None or status.severity() != nothing
     assert values.get_vector(0).CopyToVector()[-1] == 0.0  # the frame's time, recorded
-    ctx.SetDiscreteState(values.get_vector(0).CopyToVector())
+    ctx.get_mutable_discrete_state().SetFrom(values)
     assert est._update(ctx, values).severity() == nothing  # the same frame again
 
     pred = HittingPointPredictor()
@@ -119,7 +120,7 @@ def test_ticks_without_a_new_frame_or_estimate_report_that_they_did_nothing():
     status = pred._update(pctx, pvalues)
     assert status is None or status.severity() != nothing
     assert pvalues.get_vector(0).GetAtIndex(1) == 0.1  # the estimate's time, taken
-    pctx.SetDiscreteState(pvalues.get_vector(0).CopyToVector())
+    pctx.get_mutable_discrete_state().SetFrom(pvalues)
     assert pred._update(pctx, pvalues).severity() == nothing  # the same estimate again
 
 
@@ -302,3 +303,27 @@ def test_a_ball_bouncing_twice_on_the_robots_half_loses_its_prediction(band):
         valid.append(pred.GetOutputPort("valid").Eval(ctx)[0])
     assert pred.GetOutputPort("final").Eval(ctx)[0] == 1.0  # a final prediction was made
     assert not any(valid)
+
+
+def test_predictor_outputs_are_its_state_read_without_python():
+    """The predictor's outputs are state output ports: the layout's slices, read in C++ (no
+    call into Python, however often a logger or a player reads them)."""
+    pred = HittingPointPredictor()
+    ctx = pred.CreateDefaultContext()
+    for k in range(6):
+        pred.GetInputPort("state").FixValue(
+            ctx, [0.1, 0.15 - 0.09 * k, 0.95, 0.1, -5.4, -1.0 - 0.16 * k])
+        pred.GetInputPort("status").FixValue(ctx, [1.0, k * PERIOD])
+        step(pred, ctx, k * PERIOD + 2 * PERIOD / 3)
+    x = pred.layout(ctx)
+    assert x[1] == 5 * PERIOD and x[-14 + 7] == 1.0  # the estimate's time; valid
+    names = ("p_hit", "v_hit", "t_hit", "valid", "final", "spin_hit")
+
+    def read():
+        for name in names:
+            pred.GetOutputPort(name).Eval(ctx)
+        return 0.0
+
+    assert count_drake_calls(read)["total"] == 0
+    published = np.concatenate([pred.GetOutputPort(n).Eval(ctx) for n in names])
+    assert np.array_equal(published, x[-14:-2])
