@@ -327,3 +327,30 @@ def test_predictor_outputs_are_its_state_read_without_python():
     assert count_drake_calls(read)["total"] == 0
     published = np.concatenate([pred.GetOutputPort(n).Eval(ctx) for n in names])
     assert np.array_equal(published, x[-14:-2])
+
+
+def test_estimator_outputs_are_its_state_read_without_python():
+    """The estimator's outputs are state output ports written with the filter's vector: read in
+    C++, and the filter's values (zeros before it tracks)."""
+    est = BallFlightEstimator()
+    ctx = est.CreateDefaultContext()
+    names = ("state", "spin", "covariance", "spin_covariance", "status")
+
+    def read():
+        for name in names:
+            est.GetOutputPort(name).Eval(ctx)
+        return 0.0
+
+    assert est.GetOutputPort("status").Eval(ctx)[0] == 0.0
+    assert not np.any(est.GetOutputPort("state").Eval(ctx))
+    ekf = BallFlightEKF()
+    for k in range(6):
+        t = k * PERIOD
+        z = [0.1, 1.5 - 5.0 * t, 0.9 + 2.0 * t - 4.9 * t * t]
+        est.GetInputPort("measurement").FixValue(ctx, np.r_[z, t, 1.0])
+        step(est, ctx, t + PERIOD / 3)
+        ekf.step(t, np.asarray(z))
+        assert count_drake_calls(read)["total"] == 0
+    assert est.GetOutputPort("status").Eval(ctx) == pytest.approx([1.0, 5 * PERIOD])
+    assert np.array_equal(est.GetOutputPort("state").Eval(ctx), ekf.x[:6])
+    assert np.array_equal(est.GetOutputPort("spin_covariance").Eval(ctx), ekf.P[6:9, 6:9].ravel())
