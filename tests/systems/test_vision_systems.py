@@ -354,3 +354,14 @@ def test_estimator_outputs_are_its_state_read_without_python():
     assert est.GetOutputPort("status").Eval(ctx) == pytest.approx([1.0, 5 * PERIOD])
     assert np.array_equal(est.GetOutputPort("state").Eval(ctx), ekf.x[:6])
     assert np.array_equal(est.GetOutputPort("spin_covariance").Eval(ctx), ekf.P[6:9, 6:9].ravel())
+
+
+def test_camera_measurement_is_its_state_read_without_python():
+    cam = BallCamera(CameraConfig(latency=PERIOD))
+    ctx = cam.CreateDefaultContext()
+    port = cam.GetOutputPort("measurement")
+    for k in range(3):
+        cam.GetInputPort("ball_state").FixValue(ctx, ball_state([0.0, 1.0 - 0.1 * k, 1.0]))
+        step(cam, ctx, k * PERIOD)
+    assert port.Eval(ctx)[3] == pytest.approx(PERIOD)  # frame 1, one frame late
+    assert count_drake_calls(lambda: port.Eval(ctx)[3])["total"] == 0
