@@ -126,6 +126,7 @@ class HittingPointPredictor(LeafSystem):
         # The ball model that carries the spin to the plane when a GPR predicts.
         self._spin_model = (physical or early or refresh or PhysicalPredictor()).model
         self._plane_y = (physical or early or refresh or PhysicalPredictor()).plane_y
+        self._plane_memo = None  # (model, (plane_y, state), crossing): :meth:`_plane`
 
     def layout(self, context) -> np.ndarray:
         """The state as one vector in the update's layout (the module's docstring)."""
@@ -141,6 +142,25 @@ class HittingPointPredictor(LeafSystem):
         for (_, lo, hi), group in zip(_PUBLISHED, self._published, strict=True):
             discrete_state.set_value(group, new[_OUT + lo:_OUT + hi])
 
+    def _plane(self, model, state9: np.ndarray, plane_y: float):
+        """``model.predict_plane(state9, plane_y)``, kept for the last (model, state, plane):
+        at a tick's new estimate the early or final prediction and its check under the rules
+        (:meth:`_legal`) ask for the same crossing, from the same estimate with the learned
+        player's one physical model, and it is a pure function of them."""
+        key = (plane_y, tuple(state9.tolist()))
+        memo = self._plane_memo
+        if memo is not None and memo[0] is model and memo[1] == key:
+            return memo[2]
+        hit = model.predict_plane(state9, plane_y)
+        self._plane_memo = (model, key, hit)
+        return hit
+
+    def _crossing(self, physical: PhysicalPredictor, state9) -> np.ndarray | None:
+        """``physical``'s prediction (p_hit, v_hit, time to go) with the spin at the plane
+        appended; None if the model's ball never reaches the plane."""
+        hit = self._plane(physical.model, state9, physical.plane_y)
+        return None if hit is None else _prediction(hit)
+
     def predict(self, observations: np.ndarray, spin=None) -> np.ndarray | None:
         """(p_hit, v_hit, time to go) from the four observed states (4, 6); the physical model
         starts from the fourth with ``spin`` (zero if None). The GPR's features are those of
@@ -153,11 +173,11 @@ class HittingPointPredictor(LeafSystem):
         """:meth:`predict` and the spin at the plane: (p_hit, v_hit, time to go, spin_hit)."""
         start = _with_spin(observations[-1], spin)
         if self.gpr is None:
-            return _crossing(self.physical, start)
+            return self._crossing(self.physical, start)
         pred = self.gpr.predict(self.gpr.features(observations, spin))
         if pred is None:
             return None
-        hit = self._spin_model.predict_plane(start, self._plane_y)
+        hit = self._plane(self._spin_model, start, self._plane_y)
         return np.r_[pred[:7], start[6:9] if hit is None else hit.spin]
 
     def _spin_value(self, context) -> np.ndarray | None:
@@ -177,7 +197,7 @@ class HittingPointPredictor(LeafSystem):
         if bounces >= 2:
             return WITHDRAW
         if self.band is None:
-            hit = self.refresh.model.predict_plane(_with_spin(s, spin), self.refresh.plane_y)
+            hit = self._plane(self.refresh.model, _with_spin(s, spin), self.refresh.plane_y)
             if hit is not None and robot_bounces_by(hit, bounces) >= 2:
                 return WITHDRAW
         else:
@@ -236,7 +256,7 @@ class HittingPointPredictor(LeafSystem):
                 new[_OUT + 8] = 1.0
                 pred = self._legal(pred, state9, bounces)
         if pred is None and self.early is not None and s[4] < 0.0:
-            pred = _crossing(self.early, state9)
+            pred = self._crossing(self.early, state9)
             if pred is not None:
                 pred = self._legal(pred, state9, bounces)
             if (pred is not None and pred is not WITHDRAW and x[_OUT + 7] == 1.0
@@ -266,7 +286,7 @@ class HittingPointPredictor(LeafSystem):
         band, the point :func:`tt_drake.hitting_time.choose_hitting_point` finds before that
         bounce, and ``WITHDRAW`` when there is none (the ball is let go)."""
         if bounces < 2:
-            hit = self._spin_model.predict_plane(state9, self._plane_y)
+            hit = self._plane(self._spin_model, state9, self._plane_y)
             if hit is None or robot_bounces_by(hit, bounces) < 2:
                 return pred
             if self.band is not None:
@@ -285,13 +305,6 @@ class HittingPointPredictor(LeafSystem):
 def _with_spin(state6, spin) -> np.ndarray:
     """(p, v) and the spin (zero if None) as the ball model's 9-state."""
     return np.r_[np.asarray(state6, dtype=float), np.zeros(3) if spin is None else spin]
-
-
-def _crossing(physical: PhysicalPredictor, state9) -> np.ndarray | None:
-    """``physical``'s prediction (p_hit, v_hit, time to go) with the spin at the plane
-    appended; None if the model's ball never reaches the plane."""
-    hit = physical.model.predict_plane(state9, physical.plane_y)
-    return None if hit is None else _prediction(hit)
 
 
 def _prediction(hit) -> np.ndarray:

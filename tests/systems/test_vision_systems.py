@@ -365,3 +365,29 @@ def test_camera_measurement_is_its_state_read_without_python():
         step(cam, ctx, k * PERIOD)
     assert port.Eval(ctx)[3] == pytest.approx(PERIOD)  # frame 1, one frame late
     assert count_drake_calls(lambda: port.Eval(ctx)[3])["total"] == 0
+
+
+def test_one_tick_integrates_each_crossing_once():
+    """An early prediction and its check under the rules ask the one physical model for the
+    same crossing from the same estimate: it is integrated once, and the published prediction
+    is that crossing."""
+    model = PhysicalPredictor().model
+    calls = []
+
+    class Counting(type(model)):
+        def predict_plane(self, state, plane_y, max_time=3.0):
+            calls.append(tuple(np.asarray(state).tolist()))
+            return super().predict_plane(state, plane_y, max_time)
+
+    counting = Counting(model.params, dt=model.dt)
+    early = PhysicalPredictor(counting)
+    pred = HittingPointPredictor(physical=early, early=early)
+    ctx = pred.CreateDefaultContext()
+    s = [0.1, 0.6, 0.95, 0.1, -5.4, -1.0]  # toward the robot, before plane s: early only
+    pred.GetInputPort("state").FixValue(ctx, s)
+    pred.GetInputPort("status").FixValue(ctx, [1.0, 0.0])
+    step(pred, ctx, PERIOD / 3)
+    assert len(calls) == 1
+    hit = model.predict_plane(np.r_[s, 0.0, 0.0, 0.0], early.plane_y)
+    assert np.array_equal(pred.GetOutputPort("p_hit").Eval(ctx), hit.position)
+    assert pred.GetOutputPort("final").Eval(ctx)[0] == 0.0
