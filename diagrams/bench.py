@@ -24,6 +24,10 @@ diagram, against diagrams measured in the same run.
   (:func:`tt_drake.diagrams.parallel.run_episodes`): the start-up (building the workers'
   diagrams), the steady wall time per serve, the speed-up over one process and the projected
   wall time of 10,000 serves.
+- Last, untimed: the calls Drake makes into Python (:mod:`tt_drake.diagrams.python_calls`)
+  while each diagram plays the first serve once more, per simulated second and per system,
+  beside the integrator's steps and derivative evaluations per simulated second. The counter's
+  profiler slows the episode it watches, so it runs after every timing.
 """
 
 import copy
@@ -40,6 +44,7 @@ from tt_drake.benchmarks import bench_momp_planning
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.parallel import run_episodes
 from tt_drake.diagrams.players import ControllerPorts, check_player
+from tt_drake.diagrams.python_calls import count_drake_calls
 from tt_drake.diagrams.scenario import ControllerConfig, Scenario
 from tt_drake.diagrams.station import add_station, arm_port
 from tt_drake.serves import serve_sampler
@@ -190,6 +195,16 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
         result["parallel"] = _time_parallel(scenario, player, seeds, workers, project_wall,
                                             project_cpu)
     result["momp_planning"] = bench_momp_planning()
+    # Untimed, after every timing: the counter's profiler slows the episodes it watches.
+    result["drake_python_calls"] = {
+        "project": count_drake_calls(lambda: project.run(seeds[0]).duration,
+                                     project.simulator.get_integrator),
+        "reference": count_drake_calls(
+            lambda: reference.run(launch[0].launch_state, durations[0]),
+            reference.simulator.get_integrator)}
+    if player != "idle":
+        result["drake_python_calls"]["replay"] = count_drake_calls(
+            lambda: run_replay(0), replay.simulator.get_integrator)
     return result
 
 
@@ -386,4 +401,23 @@ def format_bench(r: dict) -> str:
             lines.append("    where the speed-up goes: " + "; ".join(parts))
     if "momp_planning" in r:
         lines.append(f"  MoMP planning: {r['momp_planning']}")
+    if "drake_python_calls" in r:
+        lines += _format_calls(r["drake_python_calls"])
     return "\n".join(lines)
+
+
+def _format_calls(calls: dict) -> list[str]:
+    """The Drake->Python calls of the project diagram per system, and the other diagrams'
+    totals, per simulated second."""
+    p = calls["project"]
+    lines = [f"  Drake->Python calls per simulated second (serve 0 once more, untimed): project "
+             f"{p['per_second']:,.0f}"
+             + "".join(f", {name} {c['per_second']:,.0f}" for name, c in calls.items()
+                       if name != "project")
+             + f"; the project's integrator: {p['steps_per_second']:,.0f} steps, "
+               f"{p['derivative_evaluations_per_second']:,.0f} derivative evaluations"]
+    for system, rate in p["systems"].items():
+        parts = ", ".join(f"{callback.split('.', 1)[-1]} {n:,.0f}"
+                          for callback, n in p["callbacks"][system].items())
+        lines.append(f"    {system:32s} {rate:7,.0f}   ({parts})")
+    return lines

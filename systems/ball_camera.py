@@ -11,9 +11,11 @@ Ports:
   update; ``valid = 0`` for a dropped frame (then x, y, z are NaN) and ``t_capture = NaN`` before
   the first delivery.
 
-Discrete state: ``[frame counter, delivered frame (5), frames in flight (latency_frames x 5)]``.
-The per-episode seed is a numeric parameter (:meth:`set_seed`), as in ``BallLauncher``; all
-random draws of an episode are a pure function of it.
+Discrete state: group 0 ``[frame counter, frames in flight (latency_frames x 5)]``, group 1 the
+delivered frame (5), which the ``measurement`` output is: a Drake state output port, so the
+estimator's reads are served in C++ and never call Python (docs/performance.md). The per-episode
+seed is a numeric parameter (:meth:`set_seed`), as in ``BallLauncher``; all random draws of an
+episode are a pure function of it.
 """
 
 import math
@@ -35,11 +37,10 @@ class BallCamera(LeafSystem):
         self._draws_cache: tuple[tuple[int, int], object] | None = None
         self._ball = self.DeclareVectorInputPort("ball_state", 13)
         self._seed_index = self.DeclareNumericParameter(BasicVector([0.0]))
-        initial = np.array([0.0, *_NO_FRAME, *(_NO_FRAME * self._lat)])
-        self._xd = self.DeclareDiscreteState(initial)
+        self._xd = self.DeclareDiscreteState(np.array([0.0, *(_NO_FRAME * self._lat)]))
+        self._delivered = self.DeclareDiscreteState(np.array(_NO_FRAME))
         self.DeclarePeriodicDiscreteUpdateEvent(self.config.period, 0.0, self._update)
-        self.DeclareVectorOutputPort("measurement", 5, self._calc_measurement,
-                                     prerequisites_of_calc={self.xd_ticket()})
+        self.DeclareStateOutputPort("measurement", self._delivered)
 
     def set_seed(self, context, seed: int) -> None:
         context.get_mutable_numeric_parameter(self._seed_index).SetAtIndex(0, float(seed))
@@ -63,13 +64,10 @@ class BallCamera(LeafSystem):
         new = np.empty_like(x)
         new[0] = k + 1
         if self._lat == 0:
-            new[1:6] = frame
+            delivered = frame
         else:
-            new[1:6] = x[6:11]  # the oldest frame in flight is delivered
-            new[6:-5] = x[11:]
+            delivered = x[1:6]  # the oldest frame in flight is delivered
+            new[1:-5] = x[6:]
             new[-5:] = frame
         discrete_state.set_value(self._xd, new)
-
-    def _calc_measurement(self, context, output):
-        x = context.get_discrete_state(self._xd).get_value()
-        output.SetFromVector(x[1:6])
+        discrete_state.set_value(self._delivered, delivered)

@@ -8,7 +8,12 @@ predict with the ball model (bounce included) and, unless the frame was dropped,
 position. A tick without a new frame returns "did nothing" (``EventStatus.DidNothing``): the
 simulator then leaves the state, and the caches of everything reading the outputs, as they are.
 The complete filter state is the system's discrete state
-(:meth:`BallFlightEKF.to_vector`), so contexts clone and replay exactly.
+(:meth:`BallFlightEKF.to_vector`, group 0), so contexts clone and replay exactly.
+
+Every output is a discrete-state group of its own that the update writes beside the filter's
+vector, and a Drake state output port: a read (the predictor's at every planning tick, the
+players', a logger's) is served in C++ from the context and never calls Python
+(docs/performance.md). The groups are a function of the filter's vector (:func:`published`).
 
 Ports:
 
@@ -34,6 +39,20 @@ _P = BallFlightEKF.COVARIANCE_SLICE
 # A tick without a new frame changes nothing: returning "did nothing" tells the simulator not to
 # write the (unchanged) state back, so the caches of everything downstream stay valid.
 _NOTHING = EventStatus.DidNothing()
+#: The outputs, in their order: each a discrete-state group (:func:`published`).
+OUTPUTS = ("state", "spin", "covariance", "spin_covariance", "status")
+
+
+def published(x: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The outputs (:data:`OUTPUTS`) of the filter's vector ``x``: (p, v) and the spin while
+    tracking (zeros otherwise), the covariances of (p, v) and of the spin (row-major), and
+    ``(valid, t_state)``."""
+    tracking = x[0] == 1.0
+    state = x[_X]
+    cov = x[_P].reshape(N_STATE, N_STATE)
+    return (state[0:6] if tracking else np.zeros(6), state[6:9] if tracking else np.zeros(3),
+            cov[0:6, 0:6].ravel(), cov[6:9, 6:9].ravel(),
+            np.array([1.0 if tracking else 0.0, x[1]]))
 
 
 class BallFlightEstimator(LeafSystem):
@@ -42,15 +61,12 @@ class BallFlightEstimator(LeafSystem):
         self.config = config or EstimatorConfig()
         self._ekf = BallFlightEKF(self.config)  # scratch: loaded from / stored to the state
         self._u = self.DeclareVectorInputPort("measurement", 5)
-        self._xd = self.DeclareDiscreteState(self._ekf.to_vector())
+        x0 = self._ekf.to_vector()
+        self._xd = self.DeclareDiscreteState(x0)
+        self._published = [self.DeclareDiscreteState(value) for value in published(x0)]
         self.DeclarePeriodicDiscreteUpdateEvent(1.0 / rate, 0.0, self._update)
-        deps = {self.xd_ticket()}
-        self.DeclareVectorOutputPort("state", 6, self._calc_state, prerequisites_of_calc=deps)
-        self.DeclareVectorOutputPort("spin", 3, self._calc_spin, prerequisites_of_calc=deps)
-        self.DeclareVectorOutputPort("covariance", 36, self._calc_cov, prerequisites_of_calc=deps)
-        self.DeclareVectorOutputPort("spin_covariance", 9, self._calc_spin_cov,
-                                     prerequisites_of_calc=deps)
-        self.DeclareVectorOutputPort("status", 2, self._calc_status, prerequisites_of_calc=deps)
+        for name, group in zip(OUTPUTS, self._published, strict=True):
+            self.DeclareStateOutputPort(name, group)
 
     def _update(self, context, discrete_state):
         u = self._u.Eval(context)
@@ -61,26 +77,7 @@ class BallFlightEstimator(LeafSystem):
         ekf = self._ekf
         ekf.load_vector(x)
         ekf.step(t, np.array(u[0:3]) if u[4] > 0.5 else None)
-        discrete_state.set_value(self._xd, ekf.to_vector())
-
-    def _calc_state(self, context, output):
-        x = context.get_discrete_state(self._xd).get_value()
-        output.SetFromVector(x[_X][0:6] if x[0] == 1.0 else np.zeros(6))
-
-    def _calc_spin(self, context, output):
-        x = context.get_discrete_state(self._xd).get_value()
-        output.SetFromVector(x[_X][6:9] if x[0] == 1.0 else np.zeros(3))
-
-    def _covariance(self, context) -> np.ndarray:
-        x = context.get_discrete_state(self._xd).get_value()
-        return x[_P].reshape(N_STATE, N_STATE)
-
-    def _calc_cov(self, context, output):
-        output.SetFromVector(self._covariance(context)[0:6, 0:6].ravel())
-
-    def _calc_spin_cov(self, context, output):
-        output.SetFromVector(self._covariance(context)[6:9, 6:9].ravel())
-
-    def _calc_status(self, context, output):
-        x = context.get_discrete_state(self._xd).get_value()
-        output.SetFromVector([1.0 if x[0] == 1.0 else 0.0, x[1]])
+        x = ekf.to_vector()
+        discrete_state.set_value(self._xd, x)
+        for group, value in zip(self._published, published(x), strict=True):
+            discrete_state.set_value(group, value)

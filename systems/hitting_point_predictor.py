@@ -36,10 +36,15 @@ Ports:
   plus the predicted time to go (the regressors learn the time to go, which does not depend on
   the episode's clock).
 
-Discrete state: ``[n_collected, last_t, observations (4 x 6), p_hit (3), v_hit (3), t_hit,
-valid, final, spin_hit (3), first_bounce, bounces]``; outputs copy slices of it. The last two
-count the ball's bounces on the robot's half, from every estimate
-(:class:`tt_drake.hitting_time.BounceCount`, -1: none yet).
+The update works on the layout ``[n_collected, last_t, observations (4 x 6), p_hit (3), v_hit
+(3), t_hit, valid, final, spin_hit (3), first_bounce, bounces]``; the last two count the ball's
+bounces on the robot's half, from every estimate (:class:`tt_drake.hitting_time.BounceCount`,
+-1: none yet). The discrete state holds it in seven groups: group 0 the memory
+(``n_collected``, ``last_t``, the observations and the bounce count) and one group per output
+(``p_hit`` ... ``spin_hit``), which the outputs are: Drake's state output ports, served in C++
+from the context, so that reading a prediction (the player's and the configuration's reads, a
+logger's samples) never calls Python (docs/performance.md). A tick without a new estimate reads
+only the memory's ``last_t``.
 
 **The rules.** No prediction is published for a point after the ball's second bounce on the
 robot's half (Law 2.10.1.3, a lost point): an early or final prediction whose plane crossing the
@@ -68,6 +73,10 @@ from tt_drake.wam_params import PLANNING_RATE
 
 _OBS = 2
 _OUT = 2 + 6 * N_OBSERVATIONS
+#: The outputs: each a discrete-state group, the layout's slice [_OUT + lo, _OUT + hi).
+_PUBLISHED = (("p_hit", 0, 3), ("v_hit", 3, 6), ("t_hit", 6, 7), ("valid", 7, 8),
+              ("final", 8, 9), ("spin_hit", 9, 12))
+_LAYOUT = _OUT + 14
 #: What the refresh returns when the rules leave the ball no hitting point.
 WITHDRAW = object()
 
@@ -105,33 +114,52 @@ class HittingPointPredictor(LeafSystem):
         self._state = self.DeclareVectorInputPort("state", 6)
         self._spin = self.DeclareVectorInputPort("spin", 3)
         self._status = self.DeclareVectorInputPort("status", 2)
-        initial = np.zeros(_OUT + 14)
+        initial = np.zeros(_LAYOUT)
         initial[1] = -math.inf
         initial[_OUT + 12] = _NO_BOUNCE
-        self._xd = self.DeclareDiscreteState(initial)
+        self._xd = self.DeclareDiscreteState(np.r_[initial[:_OUT], initial[_OUT + 12:]])
+        self._published = [self.DeclareDiscreteState(initial[_OUT + lo:_OUT + hi])
+                           for _, lo, hi in _PUBLISHED]
         self.DeclarePeriodicDiscreteUpdateEvent(1.0 / rate, 0.0, self._update)
-        deps = {self.xd_ticket()}
-        self.DeclareVectorOutputPort("p_hit", 3, self._calc(_OUT, _OUT + 3),
-                                     prerequisites_of_calc=deps)
-        self.DeclareVectorOutputPort("v_hit", 3, self._calc(_OUT + 3, _OUT + 6),
-                                     prerequisites_of_calc=deps)
-        self.DeclareVectorOutputPort("t_hit", 1, self._calc(_OUT + 6, _OUT + 7),
-                                     prerequisites_of_calc=deps)
-        self.DeclareVectorOutputPort("valid", 1, self._calc(_OUT + 7, _OUT + 8),
-                                     prerequisites_of_calc=deps)
-        self.DeclareVectorOutputPort("final", 1, self._calc(_OUT + 8, _OUT + 9),
-                                     prerequisites_of_calc=deps)
-        self.DeclareVectorOutputPort("spin_hit", 3, self._calc(_OUT + 9, _OUT + 12),
-                                     prerequisites_of_calc=deps)
+        for (name, _, _), group in zip(_PUBLISHED, self._published, strict=True):
+            self.DeclareStateOutputPort(name, group)
         # The ball model that carries the spin to the plane when a GPR predicts.
         self._spin_model = (physical or early or refresh or PhysicalPredictor()).model
         self._plane_y = (physical or early or refresh or PhysicalPredictor()).plane_y
+        self._plane_memo = None  # (model, (plane_y, state), crossing): :meth:`_plane`
 
-    def _calc(self, lo, hi):
-        def calc(context, output):
-            output.SetFromVector(context.get_discrete_state(self._xd).get_value()[lo:hi])
+    def layout(self, context) -> np.ndarray:
+        """The state as one vector in the update's layout (the module's docstring)."""
+        memory = context.get_discrete_state(self._xd).get_value()
+        return np.concatenate([memory[:_OUT],
+                               *(context.get_discrete_state(g).get_value()
+                                 for g in self._published),
+                               memory[_OUT:]])
 
-        return calc
+    def _store(self, discrete_state, new: np.ndarray) -> None:
+        """Write the layout ``new`` into the state's groups."""
+        discrete_state.set_value(self._xd, np.r_[new[:_OUT], new[_OUT + 12:]])
+        for (_, lo, hi), group in zip(_PUBLISHED, self._published, strict=True):
+            discrete_state.set_value(group, new[_OUT + lo:_OUT + hi])
+
+    def _plane(self, model, state9: np.ndarray, plane_y: float):
+        """``model.predict_plane(state9, plane_y)``, kept for the last (model, state, plane):
+        at a tick's new estimate the early or final prediction and its check under the rules
+        (:meth:`_legal`) ask for the same crossing, from the same estimate with the learned
+        player's one physical model, and it is a pure function of them."""
+        key = (plane_y, tuple(state9.tolist()))
+        memo = self._plane_memo
+        if memo is not None and memo[0] is model and memo[1] == key:
+            return memo[2]
+        hit = model.predict_plane(state9, plane_y)
+        self._plane_memo = (model, key, hit)
+        return hit
+
+    def _crossing(self, physical: PhysicalPredictor, state9) -> np.ndarray | None:
+        """``physical``'s prediction (p_hit, v_hit, time to go) with the spin at the plane
+        appended; None if the model's ball never reaches the plane."""
+        hit = self._plane(physical.model, state9, physical.plane_y)
+        return None if hit is None else _prediction(hit)
 
     def predict(self, observations: np.ndarray, spin=None) -> np.ndarray | None:
         """(p_hit, v_hit, time to go) from the four observed states (4, 6); the physical model
@@ -145,11 +173,11 @@ class HittingPointPredictor(LeafSystem):
         """:meth:`predict` and the spin at the plane: (p_hit, v_hit, time to go, spin_hit)."""
         start = _with_spin(observations[-1], spin)
         if self.gpr is None:
-            return _crossing(self.physical, start)
+            return self._crossing(self.physical, start)
         pred = self.gpr.predict(self.gpr.features(observations, spin))
         if pred is None:
             return None
-        hit = self._spin_model.predict_plane(start, self._plane_y)
+        hit = self._plane(self._spin_model, start, self._plane_y)
         return np.r_[pred[:7], start[6:9] if hit is None else hit.spin]
 
     def _spin_value(self, context) -> np.ndarray | None:
@@ -169,7 +197,7 @@ class HittingPointPredictor(LeafSystem):
         if bounces >= 2:
             return WITHDRAW
         if self.band is None:
-            hit = self.refresh.model.predict_plane(_with_spin(s, spin), self.refresh.plane_y)
+            hit = self._plane(self.refresh.model, _with_spin(s, spin), self.refresh.plane_y)
             if hit is not None and robot_bounces_by(hit, bounces) >= 2:
                 return WITHDRAW
         else:
@@ -186,15 +214,15 @@ class HittingPointPredictor(LeafSystem):
 
     def _update(self, context, discrete_state):
         status = self._status.Eval(context)
-        x = context.get_discrete_state(self._xd).get_value()
         t = float(status[1])
-        if status[0] < 0.5 or not t > x[1]:
+        if status[0] < 0.5 or not t > context.get_discrete_state(self._xd).get_value()[1]:
             return _NOTHING
+        x = self.layout(context)
         if self.play_again and self._state.Eval(context)[4] > 0.0 and (x[0] > 0 or x[_OUT + 7]):
             new = np.zeros_like(x)
             new[1] = t
             new[_OUT + 12] = _NO_BOUNCE
-            discrete_state.set_value(self._xd, new)
+            self._store(discrete_state, new)
             return
         if x[_OUT + 8] == 1.0 and self.refresh is None:
             return _NOTHING  # a held final prediction: nothing to read
@@ -209,7 +237,7 @@ class HittingPointPredictor(LeafSystem):
                 new[_OUT + 7] = 0.0  # no legal hitting point: the prediction is withdrawn
             elif pred is not None:
                 _publish(new, pred, t)
-            discrete_state.set_value(self._xd, new)
+            self._store(discrete_state, new)
             return
         bounces = self._count_bounces(x, new, state9, t)
         n = int(x[0])
@@ -228,7 +256,7 @@ class HittingPointPredictor(LeafSystem):
                 new[_OUT + 8] = 1.0
                 pred = self._legal(pred, state9, bounces)
         if pred is None and self.early is not None and s[4] < 0.0:
-            pred = _crossing(self.early, state9)
+            pred = self._crossing(self.early, state9)
             if pred is not None:
                 pred = self._legal(pred, state9, bounces)
             if (pred is not None and pred is not WITHDRAW and x[_OUT + 7] == 1.0
@@ -238,7 +266,7 @@ class HittingPointPredictor(LeafSystem):
             new[_OUT + 7] = 0.0
         elif pred is not None:
             _publish(new, pred, t)
-        discrete_state.set_value(self._xd, new)
+        self._store(discrete_state, new)
 
     def _count_bounces(self, x, new, state9, t: float) -> int:
         """The ball's bounces on the robot's half so far, counted from every estimate
@@ -258,7 +286,7 @@ class HittingPointPredictor(LeafSystem):
         band, the point :func:`tt_drake.hitting_time.choose_hitting_point` finds before that
         bounce, and ``WITHDRAW`` when there is none (the ball is let go)."""
         if bounces < 2:
-            hit = self._spin_model.predict_plane(state9, self._plane_y)
+            hit = self._plane(self._spin_model, state9, self._plane_y)
             if hit is None or robot_bounces_by(hit, bounces) < 2:
                 return pred
             if self.band is not None:
@@ -277,13 +305,6 @@ class HittingPointPredictor(LeafSystem):
 def _with_spin(state6, spin) -> np.ndarray:
     """(p, v) and the spin (zero if None) as the ball model's 9-state."""
     return np.r_[np.asarray(state6, dtype=float), np.zeros(3) if spin is None else spin]
-
-
-def _crossing(physical: PhysicalPredictor, state9) -> np.ndarray | None:
-    """``physical``'s prediction (p_hit, v_hit, time to go) with the spin at the plane
-    appended; None if the model's ball never reaches the plane."""
-    hit = physical.model.predict_plane(state9, physical.plane_y)
-    return None if hit is None else _prediction(hit)
 
 
 def _prediction(hit) -> np.ndarray:

@@ -23,6 +23,8 @@ after the other do not. Levers:
 - ``momp-did-nothing``: the MoMP player's planning ticks without anything new return
   ``EventStatus.DidNothing`` against returning nothing;
 - ``momp-tables``: the last three together;
+- ``crossing-memo``: the hitting-point predictor integrates each plane crossing once per tick
+  (``HittingPointPredictor._plane`` keeps the last) against integrating it for every caller;
 - ``guard``: the MoMP player's safety guard (the measured arm checked against the plan at every
   planning tick, ``MoMPConfig.hold_error``) on against off (off changes no outcome
   unless a stroke would have been held);
@@ -39,9 +41,9 @@ after the other do not. Levers:
 (``tt-drake collect --perception oracle``).
 
 It also counts the serves whose outcome and episode duration are equal both ways (``did-nothing``,
-``setpoint-table``, ``hold-table`` and ``momp-did-nothing`` change no number; ``segments`` may
-move the integrator's steps, and the outcome check for it is ``compare_serves.py`` on 100
-serves).
+``setpoint-table``, ``hold-table``, ``momp-did-nothing`` and ``crossing-memo`` change no number;
+``segments`` may move the integrator's steps, and the outcome check for it is
+``compare_serves.py`` on 100 serves).
 """
 
 from __future__ import annotations
@@ -107,6 +109,13 @@ def toggles(diagram: ServeDiagram) -> dict:
         for lever in (setpoint_table, hold_table, momp_did_nothing):
             lever(on)
 
+    def crossing_memo(on: bool) -> None:
+        predictor = diagram.diagram.GetSubsystemByName("hitting_point_predictor")
+        if on:
+            predictor.__dict__.pop("_plane", None)
+        else:
+            predictor._plane = lambda model, state9, plane_y: model.predict_plane(state9, plane_y)
+
     import dataclasses
 
     guarded = getattr(player(), "config", None)  # the MoMP player's
@@ -140,13 +149,14 @@ def toggles(diagram: ServeDiagram) -> dict:
             "close-aim": close_aim, "teacher-all": teacher_all,
             "segments": segments, "did-nothing": did_nothing, "setpoint-table": setpoint_table,
             "hold-table": hold_table, "momp-did-nothing": momp_did_nothing,
-            "momp-tables": momp_tables, "guard": guard}
+            "momp-tables": momp_tables, "crossing-memo": crossing_memo, "guard": guard}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("lever", choices=("segments", "did-nothing", "setpoint-table", "hold-table",
-                                      "momp-did-nothing", "momp-tables", "guard",
+                                      "momp-did-nothing", "momp-tables", "crossing-memo",
+                                      "guard",
                                       "prediction-step", "prediction-cutoff", "close-aim",
                                       "teacher-all"))
     ap.add_argument("--player", default="momp")

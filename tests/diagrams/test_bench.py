@@ -96,10 +96,19 @@ def test_per_serve_ratios_are_summarised_by_their_quartiles():
 def test_the_reference_runs_each_serve_for_the_projects_duration_of_it():
     from tt_drake.diagrams.bench import run_bench
 
-    r = run_bench(load_scenario(), serves=2, seed=4, player="idle")
+    scenario = load_scenario()
+    r = run_bench(scenario, serves=2, seed=4, player="idle")
     # The untimed pass that sets the reference's durations simulates what the timed pass does.
     assert r["durations_equal"] == 2
     s = r["per_serve_cpu_ratio_to_reference"]
     assert s["min"] <= s["q1"] <= s["median"] <= s["q3"] <= s["max"]
     assert r["cpu_ratio_project_to_reference"] == pytest.approx(
         r["project"]["cpu_per_serve"] / r["reference"]["cpu_per_serve"])
+    # The untimed count of Drake's calls into Python: none in the C++ reference; the referee's
+    # update at its rate in the project's diagram (a tick at each end of the episode).
+    calls = r["drake_python_calls"]
+    assert calls["reference"]["total"] == 0
+    project = calls["project"]
+    assert project["callbacks"]["Referee"]["Referee._update"] == pytest.approx(
+        scenario.referee_rate, abs=1.0 / project["simulated"])
+    assert project["steps_per_second"] > scenario.referee_rate

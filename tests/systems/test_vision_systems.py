@@ -16,6 +16,7 @@ from tt_drake.diagrams.predictor import (
     model_vs_drake,
     run_pipeline,
 )
+from tt_drake.diagrams.python_calls import count_drake_calls
 from tt_drake.estimation import BallFlightEKF, EstimatorConfig
 from tt_drake.hitting_point import PhysicalPredictor
 from tt_drake.hitting_time import HittingBand
@@ -34,7 +35,7 @@ def step(system, context, t):
     """One periodic discrete update at time t, applied to the context."""
     context.SetTime(t)
     xd = system.EvalUniquePeriodicDiscreteUpdate(context)
-    context.SetDiscreteState(xd.get_vector(0).CopyToVector())
+    context.get_mutable_discrete_state().SetFrom(xd)
 
 
 def test_camera_without_noise_reports_the_true_position():
@@ -105,7 +106,7 @@ def test_ticks_without_a_new_frame_or_estimate_report_that_they_did_nothing():
     status = est._update(ctx, values)
     assert status is None or status.severity() != nothing
     assert values.get_vector(0).CopyToVector()[-1] == 0.0  # the frame's time, recorded
-    ctx.SetDiscreteState(values.get_vector(0).CopyToVector())
+    ctx.get_mutable_discrete_state().SetFrom(values)
     assert est._update(ctx, values).severity() == nothing  # the same frame again
 
     pred = HittingPointPredictor()
@@ -119,7 +120,7 @@ def test_ticks_without_a_new_frame_or_estimate_report_that_they_did_nothing():
     status = pred._update(pctx, pvalues)
     assert status is None or status.severity() != nothing
     assert pvalues.get_vector(0).GetAtIndex(1) == 0.1  # the estimate's time, taken
-    pctx.SetDiscreteState(pvalues.get_vector(0).CopyToVector())
+    pctx.get_mutable_discrete_state().SetFrom(pvalues)
     assert pred._update(pctx, pvalues).severity() == nothing  # the same estimate again
 
 
@@ -302,3 +303,91 @@ def test_a_ball_bouncing_twice_on_the_robots_half_loses_its_prediction(band):
         valid.append(pred.GetOutputPort("valid").Eval(ctx)[0])
     assert pred.GetOutputPort("final").Eval(ctx)[0] == 1.0  # a final prediction was made
     assert not any(valid)
+
+
+def test_predictor_outputs_are_its_state_read_without_python():
+    """The predictor's outputs are state output ports: the layout's slices, read in C++ (no
+    call into Python, however often a logger or a player reads them)."""
+    pred = HittingPointPredictor()
+    ctx = pred.CreateDefaultContext()
+    for k in range(6):
+        pred.GetInputPort("state").FixValue(
+            ctx, [0.1, 0.15 - 0.09 * k, 0.95, 0.1, -5.4, -1.0 - 0.16 * k])
+        pred.GetInputPort("status").FixValue(ctx, [1.0, k * PERIOD])
+        step(pred, ctx, k * PERIOD + 2 * PERIOD / 3)
+    x = pred.layout(ctx)
+    assert x[1] == 5 * PERIOD and x[-14 + 7] == 1.0  # the estimate's time; valid
+    names = ("p_hit", "v_hit", "t_hit", "valid", "final", "spin_hit")
+
+    def read():
+        for name in names:
+            pred.GetOutputPort(name).Eval(ctx)
+        return 0.0
+
+    assert count_drake_calls(read)["total"] == 0
+    published = np.concatenate([pred.GetOutputPort(n).Eval(ctx) for n in names])
+    assert np.array_equal(published, x[-14:-2])
+
+
+def test_estimator_outputs_are_its_state_read_without_python():
+    """The estimator's outputs are state output ports written with the filter's vector: read in
+    C++, and the filter's values (zeros before it tracks)."""
+    est = BallFlightEstimator()
+    ctx = est.CreateDefaultContext()
+    names = ("state", "spin", "covariance", "spin_covariance", "status")
+
+    def read():
+        for name in names:
+            est.GetOutputPort(name).Eval(ctx)
+        return 0.0
+
+    assert est.GetOutputPort("status").Eval(ctx)[0] == 0.0
+    assert not np.any(est.GetOutputPort("state").Eval(ctx))
+    ekf = BallFlightEKF()
+    for k in range(6):
+        t = k * PERIOD
+        z = [0.1, 1.5 - 5.0 * t, 0.9 + 2.0 * t - 4.9 * t * t]
+        est.GetInputPort("measurement").FixValue(ctx, np.r_[z, t, 1.0])
+        step(est, ctx, t + PERIOD / 3)
+        ekf.step(t, np.asarray(z))
+        assert count_drake_calls(read)["total"] == 0
+    assert est.GetOutputPort("status").Eval(ctx) == pytest.approx([1.0, 5 * PERIOD])
+    assert np.array_equal(est.GetOutputPort("state").Eval(ctx), ekf.x[:6])
+    assert np.array_equal(est.GetOutputPort("spin_covariance").Eval(ctx), ekf.P[6:9, 6:9].ravel())
+
+
+def test_camera_measurement_is_its_state_read_without_python():
+    cam = BallCamera(CameraConfig(latency=PERIOD))
+    ctx = cam.CreateDefaultContext()
+    port = cam.GetOutputPort("measurement")
+    for k in range(3):
+        cam.GetInputPort("ball_state").FixValue(ctx, ball_state([0.0, 1.0 - 0.1 * k, 1.0]))
+        step(cam, ctx, k * PERIOD)
+    assert port.Eval(ctx)[3] == pytest.approx(PERIOD)  # frame 1, one frame late
+    assert count_drake_calls(lambda: port.Eval(ctx)[3])["total"] == 0
+
+
+def test_one_tick_integrates_each_crossing_once():
+    """An early prediction and its check under the rules ask the one physical model for the
+    same crossing from the same estimate: it is integrated once, and the published prediction
+    is that crossing."""
+    model = PhysicalPredictor().model
+    calls = []
+
+    class Counting(type(model)):
+        def predict_plane(self, state, plane_y, max_time=3.0):
+            calls.append(tuple(np.asarray(state).tolist()))
+            return super().predict_plane(state, plane_y, max_time)
+
+    counting = Counting(model.params, dt=model.dt)
+    early = PhysicalPredictor(counting)
+    pred = HittingPointPredictor(physical=early, early=early)
+    ctx = pred.CreateDefaultContext()
+    s = [0.1, 0.6, 0.95, 0.1, -5.4, -1.0]  # toward the robot, before plane s: early only
+    pred.GetInputPort("state").FixValue(ctx, s)
+    pred.GetInputPort("status").FixValue(ctx, [1.0, 0.0])
+    step(pred, ctx, PERIOD / 3)
+    assert len(calls) == 1
+    hit = model.predict_plane(np.r_[s, 0.0, 0.0, 0.0], early.plane_y)
+    assert np.array_equal(pred.GetOutputPort("p_hit").Eval(ctx), hit.position)
+    assert pred.GetOutputPort("final").Eval(ctx)[0] == 0.0
