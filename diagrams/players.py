@@ -34,6 +34,21 @@ class PlayerError(ValueError, BadInputError):
     """An unknown player name or a player that cannot be built."""
 
 
+def drive_controller(builder, world, controller, system) -> None:
+    """Wire a player ``system`` as the player functions above describe: its ``ball_state``
+    input from the plant (and its ``arm_state``, if it has one, from its own arm), its
+    ``desired_state`` and ``desired_acceleration`` outputs into ``controller``."""
+    plant = world.plant
+    builder.Connect(plant.get_state_output_port(world.ball), system.GetInputPort("ball_state"))
+    if system.HasInputPort("arm_state"):
+        builder.Connect(plant.get_state_output_port(world.robot),
+                        system.GetInputPort("arm_state"))
+    builder.Connect(system.GetOutputPort("desired_state"),
+                    controller.get_input_port_desired_state())
+    builder.Connect(system.GetOutputPort("desired_acceleration"),
+                    controller.get_input_port_desired_acceleration())
+
+
 @dataclass(frozen=True)
 class RegisteredPlayer:
     """A player's name, its function (or a ``"module:function"`` reference to it) and the

@@ -38,7 +38,12 @@ from tqdm import tqdm
 from tt_drake.camera_model import MAX_CAMERA_FRAMES
 from tt_drake.diagrams.episodes import PlayerError, check_run, episode_seed
 from tt_drake.diagrams.parallel import run_episodes
-from tt_drake.diagrams.players import ControllerPorts, player_function, player_system
+from tt_drake.diagrams.players import (
+    ControllerPorts,
+    drive_controller,
+    player_function,
+    player_system,
+)
 from tt_drake.diagrams.recording import (
     BALL_COLOUR,
     BALL_MARKER_RADIUS,
@@ -212,14 +217,7 @@ class RallyDiagram:
             world, controller = station_ports(station, k)
             side, seeded, system = build_player_side(name, scenario, k)
             builder.AddSystem(side)
-            builder.Connect(world.plant.get_state_output_port(world.ball),
-                            side.GetInputPort("ball_state"))
-            builder.Connect(world.plant.get_state_output_port(world.robot),
-                            side.GetInputPort("arm_state"))
-            builder.Connect(side.GetOutputPort("desired_state"),
-                            controller.get_input_port_desired_state())
-            builder.Connect(side.GetOutputPort("desired_acceleration"),
-                            controller.get_input_port_desired_acceleration())
+            drive_controller(builder, world, controller, side)
             self.seeded += seeded
             self.sides.append(side)
             self.player_systems.append(system)

@@ -10,6 +10,7 @@ from tt_drake.diagrams.episodes import ServeDiagram
 from tt_drake.diagrams.gym_envs import ReturnBallStepEnv
 from tt_drake.diagrams.players import (
     PlayerError,
+    drive_controller,
     player_function,
     player_names,
     register_player,
@@ -39,12 +40,7 @@ class PostureHolder(LeafSystem):
 
 def add_posture_holder(builder, world, controller, scenario) -> list:
     holder = builder.AddNamedSystem("posture_holder", PostureHolder())
-    builder.Connect(world.plant.get_state_output_port(world.ball),
-                    holder.GetInputPort("ball_state"))
-    builder.Connect(holder.GetOutputPort("desired_state"),
-                    controller.get_input_port_desired_state())
-    builder.Connect(holder.GetOutputPort("desired_acceleration"),
-                    controller.get_input_port_desired_acceleration())
+    drive_controller(builder, world, controller, holder)
     return []
 
 

@@ -15,7 +15,7 @@ import pytest
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from tt_drake.diagrams.episodes import ServeDiagram
-from tt_drake.diagrams.players import register_player, unregister_player
+from tt_drake.diagrams.players import drive_controller, register_player, unregister_player
 from tt_drake.diagrams.rally import (
     RallyDiagram,
     RallyResult,
@@ -58,12 +58,7 @@ class TableToucher(LeafSystem):
 
 def add_table_toucher(builder, world, controller, scenario) -> list:
     toucher = builder.AddNamedSystem("table_toucher", TableToucher())
-    builder.Connect(world.plant.get_state_output_port(world.ball),
-                    toucher.GetInputPort("ball_state"))
-    builder.Connect(toucher.GetOutputPort("desired_state"),
-                    controller.get_input_port_desired_state())
-    builder.Connect(toucher.GetOutputPort("desired_acceleration"),
-                    controller.get_input_port_desired_acceleration())
+    drive_controller(builder, world, controller, toucher)
     return []
 
 
