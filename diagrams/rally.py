@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import functools
 import html as html_lib
 import math
 import sys
@@ -65,7 +64,6 @@ from tt_drake.diagrams.station import (
 )
 from tt_drake.outputs import check_writable, write_json_atomic, write_text_atomic
 from tt_drake.provenance import run_provenance
-from tt_drake.rally_aim import draw_aim
 from tt_drake.rally_rules import SIDES, Exchange, RallyFault, receiver_after, to_side
 from tt_drake.rally_stats import outgoing_figures
 from tt_drake.systems.wam import hold_first_setpoint
@@ -156,8 +154,7 @@ def build_player_side(player, scenario: Scenario, side: int):
     if scenario.rally.aim == "competitive":
         for found in sub.GetSystems():
             if hasattr(found, "aims"):
-                found.aims = functools.partial(draw_aim,
-                                               copy.deepcopy(scenario.rally.competitive))
+                found.aims = copy.deepcopy(scenario.rally.competitive)
                 seeded = [*seeded, found]
     diagram = sub.Build()
     diagram.set_name(f"player_{SIDES[side]}")

@@ -46,7 +46,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
-from collections.abc import Callable
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -70,7 +70,7 @@ from tt_drake.racket_law import (
     racket_for_return,
     solve_outgoing_velocity,
 )
-from tt_drake.rally_aim import Aim
+from tt_drake.rally_aim import Aim, CompetitiveAim, draw_aims, opponent_hitting_point
 from tt_drake.spin_stroke import spin_stroke_candidates
 from tt_drake.stages import (
     AWAITING,
@@ -109,6 +109,8 @@ class Stroke:
     spin_share: float = 1.0  # of the spin the racket compensates (PlannerConfig.stroke_spins)
     blade_offset: float = 0.0  # m, the contact's distance from the blade centre
     reach_in: float = 0.0  # m, how far toward the shoulder the stroke was planned (reach_point)
+    spin_out: np.ndarray | None = None  # rad/s, the spin the stroke sends the ball back with
+    aimed: bool = False  # planned for the stroke's drawn aim (AnalyticalPlayer.aims)
 
 
 @dataclass(frozen=True)
@@ -319,7 +321,7 @@ class StrokePlanner:
                 break
         if found is None:
             return None
-        share, offset, v_out, flight_time, racket, ik, qd_hit = found
+        share, offset, v_out, spin_out, flight_time, racket, ik, qd_hit = found
         if close and (np.abs(ik.q - previous.q_hit).max() > self.config.max_branch_change):
             return None  # the solver jumped to another arm configuration: keep the last stroke
         replans = previous.replans + 1 if previous is not None else 1
@@ -327,40 +329,41 @@ class StrokePlanner:
                       v_out,
                       racket.normal, racket.velocity, np.asarray(ik.q), np.asarray(qd_hit),
                       ik.position_error, ik.angle_error, float(flight_time), replans,
-                      float(share), float(offset), float(reach))
+                      float(share), float(offset), float(reach), np.asarray(spin_out))
 
     def _first_feasible(self, p_hit, v_hit, spin, spins, offsets, contact_offset, seed,
                         previous):
-        """The first (share, offset, v_out, flight time, racket, IK, theta_dot_hit) the arm
-        reaches within its joint speed limits: for each spin share s and each blade offset in
-        turn (shares outermost), every aim of :meth:`aims` for the spin s omega, best first, with
-        its racket by the racket law and the blade centre of :func:`blade_centre`; None if there
-        is none. The first pair is the plain stroke (s = 1, the ball on the centre)."""
+        """The first (share, offset, v_out, spin_out, flight time, racket, IK, theta_dot_hit)
+        the arm reaches within its joint speed limits: for each spin share s and each blade
+        offset in turn (shares outermost), every aim of :meth:`aims` for the spin s omega, best
+        first, with its racket by the racket law and the blade centre of :func:`blade_centre`;
+        None if there is none. The first pair is the plain stroke (s = 1, the ball on the
+        centre)."""
         for share in spins:
             compensated = share * spin
             aims = self._strokes(p_hit, v_hit, compensated, previous)
             for offset in offsets:
-                for v_out, flight_time, racket in aims:
+                for v_out, spin_out, flight_time, racket in aims:
                     ik = self.arm.solve(blade_centre(p_hit, racket.normal, contact_offset,
                                                      offset), racket.normal, q_seed=seed)
                     if not ik.success:
                         continue
                     qd_hit = self.arm.joint_velocities_free_spin(ik.q, racket.velocity)
                     if np.all(np.abs(qd_hit) <= self.limits.velocity):
-                        return share, offset, v_out, flight_time, racket, ik, qd_hit
+                        return share, offset, v_out, spin_out, flight_time, racket, ik, qd_hit
         return None
 
     def _strokes(self, p_hit, v_hit, spin, previous: Stroke | None) -> list:
-        """(v_out, flight time, racket) to try, best first, for a ball spinning at ``spin``:
-        the flat stroke's aims (:meth:`aims`) and :func:`racket_for_return`, or with
-        ``config.topspin`` the brushed strokes of :func:`spin_stroke_candidates` (a correction
-        keeps the previous stroke's flight time)."""
+        """(v_out, spin_out, flight time, racket) to try, best first, for a ball spinning at
+        ``spin``: the flat stroke's aims (:meth:`aims`) and :func:`racket_for_return`, the ball
+        keeping ``spin``, or with ``config.topspin`` the brushed strokes of
+        :func:`spin_stroke_candidates` (a correction keeps the previous stroke's flight time)."""
         cfg = self.config
         if cfg.topspin is None:
-            return [(v_out, flight_time, racket_for_return(v_hit, v_out, spin))
+            return [(v_out, spin, flight_time, racket_for_return(v_hit, v_out, spin))
                     for v_out, flight_time in self.aims(p_hit, v_hit, spin, previous)]
         times = (previous.flight_time,) if previous is not None else cfg.flight_times
-        return [(s.v_out, s.flight_time, s.racket)
+        return [(s.v_out, s.spin_out, s.flight_time, s.racket)
                 for s in spin_stroke_candidates(p_hit, v_hit, spin, (cfg.target_x, cfg.target_y),
                                                 cfg.topspin, flight_times=times)]
 
@@ -416,7 +419,14 @@ class StrokePlanner:
                              self.config.torque_fraction * self.effort_limit, now)
 
     def plan(self, now: float, current: StagePlan, stroke: Stroke) -> StagePlan | None:
-        """The current plan up to ``now`` followed by the stroke; None to keep waiting.
+        """The current plan up to ``now`` followed by the stroke; None to keep waiting, or if
+        the stroke is not feasible for the arm (:meth:`schedule` tells which)."""
+        return self.schedule(now, current, stroke)[0]
+
+    def schedule(self, now: float, current: StagePlan,
+                 stroke: Stroke) -> tuple[StagePlan | None, bool]:
+        """(the current plan up to ``now`` followed by the stroke, False), or (None, True) to
+        keep waiting, or (None, False) if the stroke is not feasible for the arm.
 
         Waiting at rest is safe only while a direct hit started ``config.start_margin`` later
         would still be feasible; otherwise the hit starts now."""
@@ -431,11 +441,11 @@ class StrokePlanner:
         if plan is None:
             later = stroke_from(now + self.config.start_margin, allow_wait=False)
             if self.feasible(later, now):
-                return None
+                return None, True
             plan = stroke_from(now, allow_wait=False)
         if not self.feasible(plan, now):
-            return None  # not feasible for the arm: keep the current plan
-        return StagePlan(current.truncated(now).segments + plan.segments)
+            return None, False  # not feasible for the arm: keep the current plan
+        return StagePlan(current.truncated(now).segments + plan.segments), False
 
 
 class PlayerState(Immutable):
@@ -463,10 +473,18 @@ class AnalyticalPlayer(StagePlanPlayer):
     follow-through and the return to the awaiting posture) and waits for the next ball coming to
     it. Without it (``serve``) the player stays committed to its one stroke.
 
-    ``aims`` (the rally's competitive aim): a function of (the episode's seed, the stroke's
-    index) giving each stroke's :class:`tt_drake.rally_aim.Aim`; the seed is a numeric
-    parameter (:meth:`set_seed`). A stroke the aimed planner cannot make falls back to the
-    planner's own aim. None: every stroke plays the planner's aim."""
+    ``aims`` (the rally's competitive aim, :mod:`tt_drake.rally_aim`): each stroke plays the
+    first of its drawn aims whose stroke the arm can make and whose return the opponent can play
+    (:meth:`CompetitiveAim.playable`), chosen at the stroke's first prediction and kept for it;
+    the draws are keyed by the episode's seed, a numeric parameter (:meth:`set_seed`), and the
+    stroke's index. When no drawn aim serves, or the chosen aim's stroke is not feasible for the
+    arm at a later prediction, the stroke plays the planner's own aim. None: every stroke plays
+    the planner's aim.
+
+    A stroke the arm cannot follow from the current state (outside the joint or effort limits)
+    leaves the plan as it is; the player then tries the next stroke (the planner's own aim's
+    after a drawn aim's), and if it can follow none it records the first as the prediction
+    acted on and plans again when the prediction moves."""
 
     # Predictions past the committed stroke's correction cut-off can change nothing, so none is
     # made; docs/examples/lever_toggle.py turns them back on to measure what they cost.
@@ -475,13 +493,13 @@ class AnalyticalPlayer(StagePlanPlayer):
     def __init__(self, planner: StrokePlanner | None = None, rate: float = wp.PLANNING_RATE,
                  setpoint_lead: float = 0.0, corrections: bool = True, play_again: bool = False,
                  setpoint_period: float | None = None,
-                 aims: Callable[[int, int], Aim] | None = None):
+                 aims: CompetitiveAim | None = None):
         super().__init__(setpoint_lead, setpoint_period)
         self.planner = planner or StrokePlanner()
         self.corrections = corrections
         self.play_again = play_again
         self.aims = aims
-        self._aimed: dict[tuple[int, int], StrokePlanner] = {}
+        self._aimed: dict[tuple[int, int], StrokePlanner | None] = {}
         self._seed_index = self.DeclareNumericParameter(BasicVector([0.0]))
         self._estimate = self.DeclareVectorInputPort("estimated_state", 6)
         self._spin = self.DeclareVectorInputPort("estimated_spin", 3)
@@ -503,20 +521,42 @@ class AnalyticalPlayer(StagePlanPlayer):
         """The episode's seed set by :meth:`set_seed` (0 if none was)."""
         return int(context.get_numeric_parameter(self._seed_index).GetAtIndex(0))
 
-    def _stroke(self, context, old: PlayerState, p_hit, v_hit, t_hit, spin):
-        """The planner's stroke for the prediction, aimed for stroke ``old.strokes`` when the
-        player has ``aims`` (falling back to the planner's own aim)."""
+    def _strokes(self, context, old: PlayerState, p_hit, v_hit, t_hit,
+                 spin) -> Iterator[Stroke | None]:
+        """The strokes to try for the prediction, best first (None: the arm cannot reach it):
+        the stroke's chosen aim's (when the player has ``aims``), then the planner's own aim's.
+        Each planner corrects only a stroke it planned itself (``Stroke.aimed``)."""
         if self.aims is not None:
-            seed = self.seed(context)
-            key = (seed, old.strokes)
-            if key not in self._aimed:
-                if len(self._aimed) > 256:  # derived planners, cheap to make again
-                    self._aimed.clear()
-                self._aimed[key] = self.planner.aimed(self.aims(seed, old.strokes))
-            stroke = self._aimed[key].stroke(p_hit, v_hit, t_hit, spin, old.stroke)
-            if stroke is not None:
-                return stroke
-        return self.planner.stroke(p_hit, v_hit, t_hit, spin, old.stroke)
+            aimed = self._aimed_planner(context, old, p_hit, v_hit, t_hit, spin)
+            if aimed is not None:
+                previous = old.stroke if old.stroke is not None and old.stroke.aimed else None
+                stroke = aimed.stroke(p_hit, v_hit, t_hit, spin, previous)
+                yield None if stroke is None else dataclasses.replace(stroke, aimed=True)
+        previous = old.stroke if old.stroke is not None and not old.stroke.aimed else None
+        yield self.planner.stroke(p_hit, v_hit, t_hit, spin, previous)
+
+    def _aimed_planner(self, context, old: PlayerState, p_hit, v_hit, t_hit,
+                       spin) -> StrokePlanner | None:
+        """The planner of stroke ``old.strokes``'s aim, chosen at its first prediction (class
+        docstring) and kept; None if no drawn aim serves."""
+        seed = self.seed(context)
+        key = (seed, old.strokes)
+        if key not in self._aimed:
+            if len(self._aimed) > 256:  # derived planners, cheap to make again
+                self._aimed.clear()
+            self._aimed[key] = None
+            for aim in draw_aims(self.aims, seed, old.strokes):
+                planner = self.planner.aimed(aim)
+                stroke = planner.stroke(p_hit, v_hit, t_hit, spin, None)
+                if stroke is None:
+                    continue
+                cfg = planner.config
+                point = opponent_hitting_point(planner.model, stroke.p_hit, stroke.v_out,
+                                               stroke.spin_out, cfg.plane_y, cfg.band)
+                if self.aims.playable(point):
+                    self._aimed[key] = planner
+                    break
+        return self._aimed[key]
 
     def _update(self, context, state):
         old = self.player_state(context)
@@ -547,15 +587,25 @@ class AnalyticalPlayer(StagePlanPlayer):
         if hit_segment is not None and not moved:
             return  # a stroke is planned and the prediction has not moved
         if hit_segment is None and not moved:
-            stroke = old.stroke  # waiting: same stroke, but decide again whether to start
+            strokes = (old.stroke,)  # waiting: same stroke, but decide again whether to start
         else:
-            stroke = self._stroke(context, old, p_hit, v_hit, t_hit, spin)
-        if stroke is None:
-            return
-        new_plan = self.planner.plan(now, plan, stroke)
-        state.get_mutable_abstract_state(self._state_index).set_value(
-            PlayerState(plan if new_plan is None else new_plan, stroke, False, seen, bounces,
-                         old.strokes))
+            strokes = self._strokes(context, old, p_hit, v_hit, t_hit, spin)
+        # The first stroke the arm can follow (or wait for) is planned; when it can follow none,
+        # the plan is kept and the first stroke is recorded as the prediction acted on, so the
+        # player plans again when the prediction moves.
+        chosen = None
+        for stroke in strokes:
+            if stroke is None:
+                continue
+            new_plan, wait = self.planner.schedule(now, plan, stroke)
+            if new_plan is not None or wait:
+                chosen = (plan if new_plan is None else new_plan, stroke)
+                break
+            if chosen is None:
+                chosen = (plan, stroke)
+        if chosen is not None:
+            state.get_mutable_abstract_state(self._state_index).set_value(
+                PlayerState(*chosen, False, seen, bounces, old.strokes))
 
     def _ball_gone(self, context, old: PlayerState, now: float) -> bool:
         """After the planned hit, the estimator tracks a ball flying away from the robot."""
@@ -603,10 +653,9 @@ class AnalyticalPlayer(StagePlanPlayer):
         if (not before_cutoff or t_hit - now < cfg.correct_lead
                 or not self.planner.needs_correction(old.stroke, p_hit, t_hit, spin)):
             return
-        stroke = self._stroke(context, old, p_hit, v_hit, t_hit, spin)
-        if stroke is None:
-            return
-        plan = self.planner.correct(now, old.plan, stroke)
-        if plan is not None:
-            state.get_mutable_abstract_state(self._state_index).set_value(
-                PlayerState(plan, stroke, True, seen, bounces, old.strokes))
+        for stroke in self._strokes(context, old, p_hit, v_hit, t_hit, spin):
+            plan = None if stroke is None else self.planner.correct(now, old.plan, stroke)
+            if plan is not None:
+                state.get_mutable_abstract_state(self._state_index).set_value(
+                    PlayerState(plan, stroke, True, seen, bounces, old.strokes))
+                return

@@ -13,11 +13,21 @@ with; :mod:`tt_drake.spin_stroke`).
   that takes the spin off the ball, with the given probabilities. Stroke k of a rally with seed
   s draws from its own generator, keyed by (s, k), so a rally replays exactly and its strokes
   are independent.
+
+  A competitive stroke keeps the ball in play for a robot whose base does not move: it takes
+  the first of ``draws`` aims drawn in turn whose return the opponent can play
+  (:func:`opponent_hitting_point`: the opponent, the same robot mirrored through the net,
+  chooses its hitting point on the return's predicted path by its own rule, and that point lies
+  in the ``playable_x`` and ``playable_z`` ranges the arm reaches); if none, the cooperative
+  aim.
 """
 
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from tt_drake.ball_model import BallModel, PlaneCrossing
+from tt_drake.hitting_time import HittingBand, choose_hitting_point
 
 AIMS = ("cooperative", "competitive")
 STROKE_KINDS = ("drive", "push", "block")
@@ -32,20 +42,34 @@ class CompetitiveAim:
     """The competitive aim's draws (scenario field ``rally.competitive``): target ``x`` and
     ``y`` ranges (m, the striker's frame: y > 0 is the opponent's half, the end line at 1.37 m),
     ``flight_time`` range (s), the probabilities of a drive, a push and a block (``kinds``), a
-    drive's topspin range (rad/s), a push's (negative: backspin) and a block's."""
+    drive's topspin range (rad/s), a push's (negative: backspin) and a block's; how many aims a
+    stroke may draw (``draws``) to find one whose return lands in the opponent's reach: its
+    hitting point across (``playable_x``, m, the opponent's frame) and in height
+    (``playable_z``, m)."""
 
     x: list[float] = _pair(-0.55, 0.55)
-    y: list[float] = _pair(0.55, 1.25)
+    y: list[float] = _pair(0.45, 1.3)
     flight_time: list[float] = _pair(0.42, 0.85)
     kinds: list[float] = field(default_factory=lambda: [0.7, 0.15, 0.15])
     drive_topspin: list[float] = _pair(20.0, 70.0)
     push_topspin: float = -30.0
     block_topspin: float = 0.0
+    draws: int = 8
+    # Where the arm meets a ball (the opponent's hitting point, its frame); chosen on
+    # validation rallies (docs/rally.md, "Competitive play").
+    playable_x: list[float] = _pair(-0.6, 0.5)
+    playable_z: list[float] = _pair(0.65, 1.15)
+
+    def playable(self, point: PlaneCrossing | None) -> bool:
+        """Whether the opponent's hitting point (its frame; None: it has none) lies in reach."""
+        return (point is not None
+                and self.playable_x[0] <= point.position[0] <= self.playable_x[1]
+                and self.playable_z[0] <= point.position[2] <= self.playable_z[1])
 
     def problems(self, prefix: str = "rally.competitive.") -> list[str]:
         """What is wrong with the values, one phrase per field."""
         out = []
-        for name in ("x", "y", "flight_time", "drive_topspin"):
+        for name in ("x", "y", "flight_time", "drive_topspin", "playable_x", "playable_z"):
             pair = getattr(self, name)
             if (len(pair) != 2 or not all(np.isfinite(pair)) or pair[0] > pair[1]):
                 out.append(f"{prefix}{name} must be [low, high] with low <= high, got {pair}")
@@ -57,6 +81,8 @@ class CompetitiveAim:
         if kinds.shape != (3,) or np.any(kinds < 0.0) or abs(kinds.sum() - 1.0) > 1e-9:
             out.append(f"{prefix}kinds must be 3 probabilities (drive, push, block) summing to "
                        f"1, got {self.kinds}")
+        if not (isinstance(self.draws, int) and 1 <= self.draws <= 100):
+            out.append(f"{prefix}draws must be an integer from 1 to 100, got {self.draws}")
         for name in ("push_topspin", "block_topspin"):
             if not np.isfinite(getattr(self, name)):
                 out.append(f"{prefix}{name} must be finite, got {getattr(self, name)}")
@@ -75,10 +101,20 @@ class Aim:
 
 
 def draw_aim(competitive: CompetitiveAim, seed: int, stroke: int) -> Aim:
-    """Stroke ``stroke`` of the rally with ``seed``: the competitive aim's draw (module
+    """Stroke ``stroke`` of the rally with ``seed``: the competitive aim's first draw (module
     docstring), a pure function of (seed, stroke)."""
+    return draw_aims(competitive, seed, stroke)[0]
+
+
+def draw_aims(competitive: CompetitiveAim, seed: int, stroke: int) -> list[Aim]:
+    """Stroke ``stroke``'s ``competitive.draws`` aims, drawn in turn from the generator keyed by
+    (seed, stroke): a pure function of them, the first the same for any number of draws."""
     rng = np.random.default_rng(np.random.SeedSequence([int(seed) & 0xFFFFFFFFFFFF,
                                                         int(stroke), 0xA1]))
+    return [_draw(competitive, rng) for _ in range(competitive.draws)]
+
+
+def _draw(competitive: CompetitiveAim, rng: np.random.Generator) -> Aim:
     x = float(rng.uniform(*competitive.x))
     y = float(rng.uniform(*competitive.y))
     flight_time = float(rng.uniform(*competitive.flight_time))
@@ -87,3 +123,18 @@ def draw_aim(competitive: CompetitiveAim, seed: int, stroke: int) -> Aim:
     topspin = {"drive": drive, "push": float(competitive.push_topspin),
                "block": float(competitive.block_topspin)}[kind]
     return Aim(x, y, flight_time, topspin, kind)
+
+
+def opponent_hitting_point(model: BallModel, p_hit, v_out, spin_out, plane_y: float,
+                           band: HittingBand | None) -> PlaneCrossing | None:
+    """Where the opponent, the striker's robot turned about the vertical axis through the table
+    centre (M = Rz(pi): (x, y, z) -> (-x, -y, z)), hits the return that leaves ``p_hit`` with
+    ``v_out`` and ``spin_out`` (the striker's frame), in the opponent's frame: the return's
+    state (p, v, omega) mapped by M, then the robot's hitting-point rule
+    (:func:`tt_drake.hitting_time.choose_hitting_point`) with its hitting plane ``plane_y`` and
+    ``band`` (None: the default :class:`HittingBand`); None if it has none."""
+    mirror = np.array([-1.0, -1.0, 1.0])
+    state = np.concatenate([mirror * np.asarray(p_hit, dtype=float),
+                            mirror * np.asarray(v_out, dtype=float),
+                            mirror * np.asarray(spin_out, dtype=float)])
+    return choose_hitting_point(model, state, plane_y, band, bounces_behind=0)

@@ -110,19 +110,26 @@ def test_a_ball_just_beyond_reach_is_met_with_the_blade_planned_nearer(planners)
     assert np.linalg.norm(target - hit.position) < wp.RACKET.blade_radius + BALL.radius
 
 
-def test_the_start_margin_leaves_the_stroke_a_window_of_several_frames():
+@pytest.fixture(scope="module")
+def long_stroke():
+    """A teacher and its stroke for a ball whose hit needs a long direct stroke (rally-train
+    ball 14 of seed 5101, 0.79 s to go at the launch), planned at the launch."""
+    launch = ServeSampler("rally-train", run_seed=5101).sample(
+        episode_seed(5101, 14)).launch_state
+    teacher = StrokePlanner()
+    p_hit, v_hit, t_hit, spin, _ = teacher.predict(launch[:6], 0.0, launch[6:9])
+    return teacher, teacher.stroke(p_hit, v_hit, t_hit, spin, None)
+
+
+def test_the_start_margin_leaves_the_stroke_a_window_of_several_frames(long_stroke):
     """A ball whose hit needs a long direct stroke (a rally ball, 0.79 s to go at the launch;
     its swing-back asks the arm for too much torque): at rest the player waits while a hit
     started ``start_margin`` later stays feasible. The times at which it starts, rather than
     waits, then span at least the margin, so a player acting once per camera frame (1/60 s)
     whose predicted t_hit moves by a few ms between frames still finds one; with a one-frame
     margin the window is about one frame."""
-    launch = ServeSampler("rally-train", run_seed=5101).sample(
-        episode_seed(5101, 14)).launch_state
-    teacher = StrokePlanner()
-    p_hit, v_hit, t_hit, spin, _ = teacher.predict(launch[:6], 0.0, launch[6:9])
-    stroke = teacher.stroke(p_hit, v_hit, t_hit, spin, None)
-    rest = teacher.awaiting_plan(0.0)
+    teacher, stroke = long_stroke
+    t_hit, rest = stroke.t_hit, teacher.awaiting_plan(0.0)
     step = 0.002
     for margin in (1.0 / 60.0, 0.05):
         planner = StrokePlanner(arm=teacher.arm,
@@ -133,3 +140,24 @@ def test_the_start_margin_leaves_the_stroke_a_window_of_several_frames():
         window = starts[-1] - starts[0] + step
         assert margin - step <= window <= margin + 2 * step
         assert all(np.diff(starts) < 1.5 * step)  # one window
+
+
+def test_schedule_tells_waiting_from_a_stroke_the_arm_cannot_follow(long_stroke):
+    """The same rally ball, from rest: 0.8 s before the hit the swing-back and stroke ask the
+    arm for more torque than it has (refused); later the player waits (a direct hit started
+    later is feasible); inside the start window it plans; after it the direct stroke is refused
+    again. A refusal is not a wait: the player then keeps its plan and the stroke that plan
+    follows. ``plan`` is the schedule's plan."""
+    planner, stroke = long_stroke
+    rest = planner.awaiting_plan(0.0)
+    kinds = []
+    for now in np.arange(0.0, stroke.t_hit - 0.05, 0.004):
+        plan, wait = planner.schedule(now, rest, stroke)
+        assert not (wait and plan is not None)
+        assert (planner.plan(now, rest, stroke) is None) == (plan is None)
+        kinds.append("plan" if plan is not None else "wait" if wait else "refused")
+        if plan is not None:
+            assert planner.feasible(plan, now)
+    # one run of each, in this order
+    runs = [k for i, k in enumerate(kinds) if i == 0 or kinds[i - 1] != k]
+    assert runs == ["refused", "wait", "plan", "refused"]

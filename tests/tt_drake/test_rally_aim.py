@@ -4,7 +4,17 @@ from the configured ranges and kinds."""
 import numpy as np
 import pytest
 
-from tt_drake.rally_aim import STROKE_KINDS, CompetitiveAim, draw_aim
+from tt_drake.ball_model import BallModel, PlaneCrossing
+from tt_drake.constants import BALL, PLANES, TABLE
+from tt_drake.hitting_time import HittingBand
+from tt_drake.racket_law import solve_outgoing_velocity
+from tt_drake.rally_aim import (
+    STROKE_KINDS,
+    CompetitiveAim,
+    draw_aim,
+    draw_aims,
+    opponent_hitting_point,
+)
 
 
 def test_an_aim_is_a_pure_function_of_the_rallys_seed_and_the_strokes_index():
@@ -37,3 +47,49 @@ def test_bad_ranges_and_probabilities_are_named():
     assert "rally.competitive.y" in problems and "kinds" in problems
     assert "flight_time" in problems
     assert CompetitiveAim().problems() == []
+
+
+def test_a_strokes_draws_are_pure_and_the_first_is_its_aim():
+    c = CompetitiveAim()
+    aims = draw_aims(c, 7, 3)
+    assert len(aims) == c.draws and aims == draw_aims(c, 7, 3)
+    assert aims[0] == draw_aim(c, 7, 3)
+    assert len(set(aims)) == c.draws  # each draw is a new aim
+    fewer = draw_aims(CompetitiveAim(draws=3), 7, 3)
+    assert fewer == aims[:3]  # the first draws do not depend on how many are allowed
+
+
+@pytest.mark.parametrize("target", [(-0.3, 0.9), (0.4, 0.6), (-0.5, 1.2)])
+def test_the_opponents_hitting_point_follows_the_return_through_the_mirror(target):
+    """A return aimed (drag and Magnus included) from the striker's hitting plane at ``target``
+    in the striker's frame bounces, in the opponent's frame (x, y) -> (-x, -y), at the mirrored
+    target, and the opponent meets it on its own side after that bounce: at its hitting plane
+    or, when the ball crosses the plane low, behind its table edge (its hitting-point rule)."""
+    model = BallModel()
+    p_hit = np.array([0.1, PLANES.hitting_y, 0.95])
+    spin = np.array([-60.0, 5.0, 0.0])  # topspin for a ball travelling toward +y
+    goal = (target[0], target[1], TABLE.surface_z + BALL.radius)
+    v_out = solve_outgoing_velocity(p_hit, goal, 0.6, model, spin=spin)
+    point = opponent_hitting_point(model, p_hit, v_out, spin, PLANES.hitting_y, HittingBand())
+    assert point is not None
+    bounce = point.bounces[0].position
+    np.testing.assert_allclose(bounce[:2], (-target[0], -target[1]), atol=0.01)
+    assert point.position[1] <= HittingBand().y_max + 1e-9
+    assert point.velocity[1] < 0.0  # still coming toward the opponent
+    # the mirrored spin: an axial vector under the proper rotation Rz(pi)
+    assert np.sign(point.spin[0]) == -np.sign(spin[0])
+
+
+def test_playable_is_the_reach_box():
+    c = CompetitiveAim(playable_x=[-0.6, 0.5], playable_z=[0.7, 1.15])
+
+    def at(x, z):
+        return PlaneCrossing(0.0, np.array([x, PLANES.hitting_y, z]), np.zeros(3),
+                             np.zeros(3), ())
+
+    assert c.playable(at(0.0, 0.9)) and c.playable(at(-0.6, 0.7)) and c.playable(at(0.5, 1.15))
+    assert not c.playable(at(0.51, 0.9)) and not c.playable(at(-0.61, 0.9))
+    assert not c.playable(at(0.0, 0.69)) and not c.playable(at(0.0, 1.16))
+    assert not c.playable(None)
+    assert "draws" in " ".join(CompetitiveAim(draws=0).problems())
+    assert "playable_z" in " ".join(CompetitiveAim(playable_z=[1.2, 0.7]).problems())
