@@ -253,6 +253,8 @@ def add_learned_player(builder: DiagramBuilder, world: World, controller, scenar
     builder.Connect(world.plant.get_state_output_port(world.robot),
                     player.GetInputPort("arm_state"))
     connect_hitting_chain(builder, predictor, configuration, player)
+    # The ball's index, by which a competitive stroke draws its aim (the rally's).
+    builder.Connect(predictor.GetOutputPort("balls"), configuration.GetInputPort("balls"))
     if configuration.uses_spin and primitives:
         # A move refused with the spin-aware racket is tried with the spinless one.
         builder.Connect(configuration.GetOutputPort("theta_dot_hit_spinless"),

@@ -42,6 +42,7 @@ from tt_drake.diagrams.players import (
     drive_controller,
     player_function,
     player_system,
+    plays_learned_artefacts,
 )
 from tt_drake.diagrams.recording import (
     BALL_COLOUR,
@@ -114,14 +115,16 @@ class _PortWorld:
         self.plant = self._Plant({self.ball: ball_port, self.robot: arm_port})
 
 
-def build_player_side(player, scenario: Scenario, side: int):
+def build_player_side(player, scenario: Scenario, side: int, opponent=None):
     """The sub-diagram of one side's player (a registered name or a player function): inputs
     ``ball_state`` (13, the side's frame) and ``arm_state`` (14: its arm's measured q, q_dot,
     which the learned player's hold reads), outputs ``desired_state`` (14) and
     ``desired_acceleration`` (7). Every system with a ``play_again`` attribute plays again after
     each stroke, and every planner (a ``planner`` attribute whose config has a target) aims at
-    the rally's target. Returns (diagram, the systems that draw random numbers, the player
-    system: the one with a ``stroke`` output, or None)."""
+    the rally's target; with the competitive aim every system with an ``aims`` attribute gets
+    the scenario's, with the reach of ``opponent`` (the other side's player). Returns (diagram,
+    the systems that draw random numbers, the player system: the one with a ``stroke`` output,
+    or None)."""
     add_player = player_function(player)
     sub = DiagramBuilder()
     ball = sub.AddNamedSystem("ball_state", PassThrough(13))
@@ -154,7 +157,8 @@ def build_player_side(player, scenario: Scenario, side: int):
     if scenario.rally.aim == "competitive":
         for found in sub.GetSystems():
             if hasattr(found, "aims"):
-                found.aims = copy.deepcopy(scenario.rally.competitive)
+                found.aims = scenario.rally.competitive.against(
+                    plays_learned_artefacts(opponent))
                 seeded = [*seeded, found]
     diagram = sub.Build()
     diagram.set_name(f"player_{SIDES[side]}")
@@ -212,7 +216,8 @@ class RallyDiagram:
         self.sides, self.player_systems = [], []
         for k, name in enumerate(self.players):
             world, controller = station_ports(station, k)
-            side, seeded, system = build_player_side(name, scenario, k)
+            side, seeded, system = build_player_side(name, scenario, k,
+                                                     opponent=self.players[1 - k])
             builder.AddSystem(side)
             drive_controller(builder, world, controller, side)
             self.seeded += seeded

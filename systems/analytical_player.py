@@ -448,6 +448,40 @@ class StrokePlanner:
         return StagePlan(current.truncated(now).segments + plan.segments), False
 
 
+class StrokeAims:
+    """A competitive player's per-stroke aims (:mod:`tt_drake.rally_aim`): stroke k of the
+    rally with seed s plays the first of its drawn aims (:func:`draw_aims`) whose stroke the
+    ``planner``'s arm can make and whose return the opponent can play
+    (:func:`opponent_hitting_point`, :meth:`CompetitiveAim.playable`); chosen at the stroke's
+    first prediction and kept for it."""
+
+    def __init__(self, planner: StrokePlanner, aims: CompetitiveAim):
+        self.base, self.aims = planner, aims
+        self._chosen: dict[tuple[int, int], StrokePlanner | None] = {}
+
+    def planner(self, seed: int, stroke: int, p_hit, v_hit, t_hit,
+                spin) -> StrokePlanner | None:
+        """The planner of stroke ``stroke``'s aim (class docstring); None if no drawn aim
+        serves for the prediction (p_hit, v_hit, t_hit, spin) it is first asked with."""
+        key = (int(seed), int(stroke))
+        if key not in self._chosen:
+            if len(self._chosen) > 256:  # derived planners, cheap to make again
+                self._chosen.clear()
+            self._chosen[key] = None
+            for aim in draw_aims(self.aims, seed, stroke):
+                planner = self.base.aimed(aim)
+                found = planner.stroke(p_hit, v_hit, t_hit, spin, None)
+                if found is None:
+                    continue
+                cfg = planner.config
+                point = opponent_hitting_point(planner.model, found.p_hit, found.v_out,
+                                               found.spin_out, cfg.plane_y, cfg.band)
+                if self.aims.playable(point):
+                    self._chosen[key] = planner
+                    break
+        return self._chosen[key]
+
+
 class PlayerState(Immutable):
     """``seen``: the time of the estimate last acted on (the player waits for a newer one);
     ``bounces``: the incoming ball's bounces on the robot's half seen so far; ``strokes``: the
@@ -499,7 +533,6 @@ class AnalyticalPlayer(StagePlanPlayer):
         self.corrections = corrections
         self.play_again = play_again
         self.aims = aims
-        self._aimed: dict[tuple[int, int], StrokePlanner | None] = {}
         self._seed_index = self.DeclareNumericParameter(BasicVector([0.0]))
         self._estimate = self.DeclareVectorInputPort("estimated_state", 6)
         self._spin = self.DeclareVectorInputPort("estimated_spin", 3)
@@ -509,6 +542,15 @@ class AnalyticalPlayer(StagePlanPlayer):
         # On the planning ticks: a new estimate is acted on at the first tick after it.
         self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, self._update)
         self.DeclareForcedUnrestrictedUpdateEvent(self._update)
+
+    @property
+    def aims(self) -> CompetitiveAim | None:
+        """The competitive aim's settings (class docstring); None: the planner's aim."""
+        return None if self._aims is None else self._aims.aims
+
+    @aims.setter
+    def aims(self, aims: CompetitiveAim | None) -> None:
+        self._aims = None if aims is None else StrokeAims(self.planner, aims)
 
     def player_state(self, context) -> PlayerState:
         return context.get_abstract_state(self._state_index).get_value()
@@ -526,37 +568,15 @@ class AnalyticalPlayer(StagePlanPlayer):
         """The strokes to try for the prediction, best first (None: the arm cannot reach it):
         the stroke's chosen aim's (when the player has ``aims``), then the planner's own aim's.
         Each planner corrects only a stroke it planned itself (``Stroke.aimed``)."""
-        if self.aims is not None:
-            aimed = self._aimed_planner(context, old, p_hit, v_hit, t_hit, spin)
+        if self._aims is not None:
+            aimed = self._aims.planner(self.seed(context), old.strokes, p_hit, v_hit, t_hit,
+                                       spin)
             if aimed is not None:
                 previous = old.stroke if old.stroke is not None and old.stroke.aimed else None
                 stroke = aimed.stroke(p_hit, v_hit, t_hit, spin, previous)
                 yield None if stroke is None else dataclasses.replace(stroke, aimed=True)
         previous = old.stroke if old.stroke is not None and not old.stroke.aimed else None
         yield self.planner.stroke(p_hit, v_hit, t_hit, spin, previous)
-
-    def _aimed_planner(self, context, old: PlayerState, p_hit, v_hit, t_hit,
-                       spin) -> StrokePlanner | None:
-        """The planner of stroke ``old.strokes``'s aim, chosen at its first prediction (class
-        docstring) and kept; None if no drawn aim serves."""
-        seed = self.seed(context)
-        key = (seed, old.strokes)
-        if key not in self._aimed:
-            if len(self._aimed) > 256:  # derived planners, cheap to make again
-                self._aimed.clear()
-            self._aimed[key] = None
-            for aim in draw_aims(self.aims, seed, old.strokes):
-                planner = self.planner.aimed(aim)
-                stroke = planner.stroke(p_hit, v_hit, t_hit, spin, None)
-                if stroke is None:
-                    continue
-                cfg = planner.config
-                point = opponent_hitting_point(planner.model, stroke.p_hit, stroke.v_out,
-                                               stroke.spin_out, cfg.plane_y, cfg.band)
-                if self.aims.playable(point):
-                    self._aimed[key] = planner
-                    break
-        return self._aimed[key]
 
     def _update(self, context, state):
         old = self.player_state(context)

@@ -23,26 +23,33 @@ Two sources, chosen at construction:
   When no spin-aware stroke is within the arm's reach and joint speeds, the configuration is the
   spinless one (both velocity outputs equal).
 
+With ``aims`` (the rally's competitive aim, ``analytical`` source only) each ball's stroke plays
+its drawn aim as the analytical player does (:class:`tt_drake.systems.analytical_player.
+StrokeAims`): the ball's index is the predictor's ``balls`` input and the draws' seed the rally
+seed (:meth:`HittingConfiguration.set_seed`); when no drawn aim serves, the planner's own aim.
+
 The CrKR stimulus is the model's layout (:mod:`tt_drake.stimulus`, recorded in its artefact):
 (p_hit, v_hit), or with the predicted spin at impact ``spin_hit`` appended.
 
-Ports: inputs ``p_hit`` (3), ``v_hit`` (3), ``t_hit`` (1, absolute), ``valid`` (1) and
-``spin_hit`` (3, read only by a CrKR model whose stimulus has the spin) from
+Ports: inputs ``p_hit`` (3), ``v_hit`` (3), ``t_hit`` (1, absolute), ``valid`` (1),
+``spin_hit`` (3, read only by a CrKR model whose stimulus has the spin) and ``balls`` (1, read
+only with ``aims``) from
 :class:`tt_drake.systems.hitting_point_predictor.HittingPointPredictor`; outputs ``theta_hit``
 (7), ``theta_dot_hit`` (7), ``valid`` (1) and ``theta_dot_hit_spinless`` (7: ``theta_dot_hit``
 unless ``use_spin``). It has no state: the outputs are a function of the
-inputs, cached by Drake until the predictor publishes another prediction, and solved once per
+inputs (and, with ``aims``, of the seed parameter), cached by Drake until the predictor publishes another prediction, and solved once per
 prediction (the three ports share one solution), so a player reads the configuration of the
 prediction it reads, at the same tick.
 """
 
 import numpy as np
-from pydrake.systems.framework import LeafSystem
+from pydrake.systems.framework import BasicVector, LeafSystem
 
 from tt_drake.learned_player import ConfigurationModel
 from tt_drake.racket_law import racket_for_return
+from tt_drake.rally_aim import CompetitiveAim
 from tt_drake.stimulus import PAPER_STIMULUS, compose_stimulus
-from tt_drake.systems.analytical_player import StrokePlanner
+from tt_drake.systems.analytical_player import StrokeAims, StrokePlanner
 
 SOURCES = ("crkr", "analytical")
 _NO_ANSWER = np.zeros(22)
@@ -65,11 +72,16 @@ class HittingConfiguration(LeafSystem):
         self._t = self.DeclareVectorInputPort("t_hit", 1)
         self._valid = self.DeclareVectorInputPort("valid", 1)
         self._spin = self.DeclareVectorInputPort("spin_hit", 3)
+        self._balls = self.DeclareVectorInputPort("balls", 1)
+        self._seed_index = self.DeclareNumericParameter(BasicVector([0.0]))
+        self._aims: StrokeAims | None = None
         self._layout = getattr(model, "stimulus", PAPER_STIMULUS)
         self._uses_spin = (source == "crkr" and "spin_hit" in self._layout) or (
             source == "analytical" and use_spin)
-        self._memo: tuple = (None, _NO_ANSWER)  # (stimulus, answer): a pure function's cache
-        deps = {self.all_input_ports_ticket()}
+        # ((stimulus, stroke), answer): a pure function's cache
+        self._memo: tuple = (None, _NO_ANSWER)
+        # The seed is a parameter: a competitive stroke's aim depends on it.
+        deps = {self.all_input_ports_ticket(), self.all_parameters_ticket()}
         for name, lo, hi in (("theta_hit", 0, 7), ("theta_dot_hit", 7, 14), ("valid", 14, 15),
                              ("theta_dot_hit_spinless", 15, 22)):
             self.DeclareVectorOutputPort(name, hi - lo, self._copy(lo, hi),
@@ -82,18 +94,43 @@ class HittingConfiguration(LeafSystem):
         return calc
 
     @property
+    def aims(self) -> CompetitiveAim | None:
+        """The competitive aim's settings (module docstring); None: the planner's aim."""
+        return None if self._aims is None else self._aims.aims
+
+    @aims.setter
+    def aims(self, aims: CompetitiveAim | None) -> None:
+        if aims is not None and self.source != "analytical":
+            raise ValueError("per-stroke aims need the analytical hitting configuration")
+        self._aims = None if aims is None else StrokeAims(self.planner, aims)
+
+    def set_seed(self, context, seed: int) -> None:
+        """The rally's seed, from which the per-stroke aims are drawn."""
+        context.get_mutable_numeric_parameter(self._seed_index).SetAtIndex(0, float(seed))
+
+    def seed(self, context) -> int:
+        """The seed set by :meth:`set_seed` (0 if none was)."""
+        return int(context.get_numeric_parameter(self._seed_index).GetAtIndex(0))
+
+    @property
     def uses_spin(self) -> bool:
         """Whether the answer depends on the ``spin_hit`` input."""
         return self._uses_spin
 
-    def solve(self, p_hit, v_hit, t_hit, spin_hit=None):
+    def solve(self, p_hit, v_hit, t_hit, spin_hit=None, stroke: tuple[int, int] | None = None):
         """(theta_hit, theta_dot_hit, theta_dot_hit_spinless) or None if the source has no
-        answer (IK failed)."""
+        answer (IK failed). ``stroke``: (seed, ball index) of a competitive stroke, whose aim
+        is tried first (module docstring)."""
         if self.source == "crkr":
             s = compose_stimulus(self._layout, p_hit, v_hit, spin_hit)
             q, qd, _ = self.model.predict(s, variance=False)
             return q, qd, qd
         spin = np.zeros(3) if spin_hit is None else np.asarray(spin_hit, dtype=float)
+        if self._aims is not None and stroke is not None:
+            aimed = self._aims.planner(*stroke, p_hit, v_hit, t_hit, spin)
+            found = None if aimed is None else aimed.stroke(p_hit, v_hit, t_hit, spin, None)
+            if found is not None:  # a brushed stroke: no spinless variant
+                return found.q_hit, found.qd_hit, found.qd_hit
         stroke = self.planner.stroke(p_hit, v_hit, t_hit, spin, None)
         if stroke is None and np.any(spin):
             # No racket that follows the spinning contact point is within the arm's reach or
@@ -118,11 +155,14 @@ class HittingConfiguration(LeafSystem):
         stimulus = (*self._p.Eval(context), *self._v.Eval(context), self._t.Eval(context)[0])
         if self._uses_spin:
             stimulus += tuple(self._spin.Eval(context)) if self._spin.HasValue(context) else ()
-        if stimulus == self._memo[0]:
+        stroke = None
+        if self._aims is not None and self._balls.HasValue(context):
+            stroke = (self.seed(context), int(self._balls.Eval(context)[0]))
+        if (stimulus, stroke) == self._memo[0]:
             return self._memo[1]
         solved = self.solve(np.array(stimulus[:3]), np.array(stimulus[3:6]), stimulus[6],
-                            np.array(stimulus[7:10]) if len(stimulus) == 10 else None)
+                            np.array(stimulus[7:10]) if len(stimulus) == 10 else None, stroke)
         answer = (_NO_ANSWER if solved is None
                   else np.r_[solved[0], solved[1], 1.0, solved[2]])
-        self._memo = (stimulus, answer)
+        self._memo = ((stimulus, stroke), answer)
         return answer

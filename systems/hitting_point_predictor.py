@@ -32,16 +32,19 @@ Ports:
   estimator's spin there through the bounces ahead (the teacher's stroke assumes the same; a
   GPR prediction takes it from the physical model started at the fourth observation). It is the
   spin part of a learned player's stimulus when its artefacts say so (:mod:`tt_drake.stimulus`).
+  ``balls`` (1) counts the balls let go with ``play_again``.
   ``t_hit`` is an **absolute** simulation time: the capture time of the state predicted from
   plus the predicted time to go (the regressors learn the time to go, which does not depend on
   the episode's clock).
 
 The update works on the layout ``[n_collected, last_t, observations (4 x 6), p_hit (3), v_hit
-(3), t_hit, valid, final, spin_hit (3), first_bounce, bounces]``; the last two count the ball's
-bounces on the robot's half, from every estimate (:class:`tt_drake.hitting_time.BounceCount`,
--1: none yet). The discrete state holds it in seven groups: group 0 the memory
-(``n_collected``, ``last_t``, the observations and the bounce count) and one group per output
-(``p_hit`` ... ``spin_hit``), which the outputs are: Drake's state output ports, served in C++
+(3), t_hit, valid, final, spin_hit (3), first_bounce, bounces, balls]``; ``first_bounce`` and
+``bounces`` count the ball's bounces on the robot's half, from every estimate
+(:class:`tt_drake.hitting_time.BounceCount`, -1: none yet), and ``balls`` the balls dropped so far
+with ``play_again`` (the rally's stroke index, by which a competitive player draws its aim). The
+discrete state holds it in eight groups: group 0 the memory (``n_collected``, ``last_t``, the
+observations and the bounce count) and one group per output (``p_hit`` ... ``spin_hit``,
+``balls``), which the outputs are: Drake's state output ports, served in C++
 from the context, so that reading a prediction (the player's and the configuration's reads, a
 logger's samples) never calls Python (docs/performance.md). A tick without a new estimate reads
 only the memory's ``last_t``.
@@ -76,7 +79,8 @@ _OUT = 2 + 6 * N_OBSERVATIONS
 #: The outputs: each a discrete-state group, the layout's slice [_OUT + lo, _OUT + hi).
 _PUBLISHED = (("p_hit", 0, 3), ("v_hit", 3, 6), ("t_hit", 6, 7), ("valid", 7, 8),
               ("final", 8, 9), ("spin_hit", 9, 12))
-_LAYOUT = _OUT + 14
+_BALLS = _OUT + 14  # the layout's ball counter, its own group and output port
+_LAYOUT = _OUT + 15
 #: What the refresh returns when the rules leave the ball no hitting point.
 WITHDRAW = object()
 
@@ -117,12 +121,14 @@ class HittingPointPredictor(LeafSystem):
         initial = np.zeros(_LAYOUT)
         initial[1] = -math.inf
         initial[_OUT + 12] = _NO_BOUNCE
-        self._xd = self.DeclareDiscreteState(np.r_[initial[:_OUT], initial[_OUT + 12:]])
+        self._xd = self.DeclareDiscreteState(np.r_[initial[:_OUT], initial[_OUT + 12:_BALLS]])
         self._published = [self.DeclareDiscreteState(initial[_OUT + lo:_OUT + hi])
                            for _, lo, hi in _PUBLISHED]
+        self._balls = self.DeclareDiscreteState(initial[_BALLS:])
         self.DeclarePeriodicDiscreteUpdateEvent(1.0 / rate, 0.0, self._update)
         for (name, _, _), group in zip(_PUBLISHED, self._published, strict=True):
             self.DeclareStateOutputPort(name, group)
+        self.DeclareStateOutputPort("balls", self._balls)
         # The ball model that carries the spin to the plane when a GPR predicts.
         self._spin_model = (physical or early or refresh or PhysicalPredictor()).model
         self._plane_y = (physical or early or refresh or PhysicalPredictor()).plane_y
@@ -134,13 +140,15 @@ class HittingPointPredictor(LeafSystem):
         return np.concatenate([memory[:_OUT],
                                *(context.get_discrete_state(g).get_value()
                                  for g in self._published),
-                               memory[_OUT:]])
+                               memory[_OUT:],
+                               context.get_discrete_state(self._balls).get_value()])
 
     def _store(self, discrete_state, new: np.ndarray) -> None:
         """Write the layout ``new`` into the state's groups."""
-        discrete_state.set_value(self._xd, np.r_[new[:_OUT], new[_OUT + 12:]])
+        discrete_state.set_value(self._xd, np.r_[new[:_OUT], new[_OUT + 12:_BALLS]])
         for (_, lo, hi), group in zip(_PUBLISHED, self._published, strict=True):
             discrete_state.set_value(group, new[_OUT + lo:_OUT + hi])
+        discrete_state.set_value(self._balls, new[_BALLS:])
 
     def _plane(self, model, state9: np.ndarray, plane_y: float):
         """``model.predict_plane(state9, plane_y)``, kept for the last (model, state, plane):
@@ -222,6 +230,7 @@ class HittingPointPredictor(LeafSystem):
             new = np.zeros_like(x)
             new[1] = t
             new[_OUT + 12] = _NO_BOUNCE
+            new[_BALLS] = x[_BALLS] + 1.0
             self._store(discrete_state, new)
             return
         if x[_OUT + 8] == 1.0 and self.refresh is None:

@@ -22,6 +22,7 @@ with; :mod:`tt_drake.spin_stroke`).
   aim.
 """
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -45,7 +46,8 @@ class CompetitiveAim:
     drive's topspin range (rad/s), a push's (negative: backspin) and a block's; how many aims a
     stroke may draw (``draws``) to find one whose return lands in the opponent's reach: its
     hitting point across (``playable_x``, m, the opponent's frame) and in height
-    (``playable_z``, m)."""
+    (``playable_z``, m; ``learned_playable_z`` when the opponent is a learned player, whose
+    motor primitives meet low balls less well: :meth:`against`)."""
 
     x: list[float] = _pair(-0.55, 0.55)
     y: list[float] = _pair(0.45, 1.3)
@@ -59,6 +61,13 @@ class CompetitiveAim:
     # validation rallies (docs/rally.md, "Competitive play").
     playable_x: list[float] = _pair(-0.6, 0.5)
     playable_z: list[float] = _pair(0.65, 1.15)
+    learned_playable_z: list[float] = _pair(0.7, 1.15)
+
+    def against(self, learned: bool) -> "CompetitiveAim":
+        """These settings for a stroke whose opponent is a learned player (``learned``: its
+        reach ``learned_playable_z``) or not (``playable_z``)."""
+        return dataclasses.replace(self, playable_z=list(self.learned_playable_z)) if learned \
+            else dataclasses.replace(self)
 
     def playable(self, point: PlaneCrossing | None) -> bool:
         """Whether the opponent's hitting point (its frame; None: it has none) lies in reach."""
@@ -69,7 +78,8 @@ class CompetitiveAim:
     def problems(self, prefix: str = "rally.competitive.") -> list[str]:
         """What is wrong with the values, one phrase per field."""
         out = []
-        for name in ("x", "y", "flight_time", "drive_topspin", "playable_x", "playable_z"):
+        for name in ("x", "y", "flight_time", "drive_topspin", "playable_x", "playable_z",
+                     "learned_playable_z"):
             pair = getattr(self, name)
             if (len(pair) != 2 or not all(np.isfinite(pair)) or pair[0] > pair[1]):
                 out.append(f"{prefix}{name} must be [low, high] with low <= high, got {pair}")

@@ -247,3 +247,36 @@ def test_a_competitive_rally_plays_each_strokes_drawn_aim_and_replays():
     assert aimed >= 1
     again = RallyDiagram(rally_scenario(scenario), ("analytical", "analytical")).run(21)
     assert again.as_dict() | {"wall_time": 0} == rally.as_dict() | {"wall_time": 0}
+
+
+def test_learned_players_play_the_competitive_aim_ball_by_ball():
+    """With the competitive aim the learned players' hitting configuration (the analytical IK
+    on the predicted stimulus) strokes each ball for its drawn aim: each side draws from its own
+    seed, its predictor counts the balls it let go (the stroke index), and the returns land
+    near one of their drawn targets."""
+    from tt_drake.diagrams.rally import RallyDiagram, rally_scenario
+    from tt_drake.diagrams.scenario import load_scenario
+    from tt_drake.models import shipped_artefact
+    from tt_drake.rally_aim import draw_aims
+
+    scenario = load_scenario()
+    scenario.learned.library = str(shipped_artefact("library"))
+    scenario.learned.configuration = "analytical"
+    scenario.learned.spin_aware = True
+    scenario.rally.max_exchanges = 6
+    scenario.rally.aim = "competitive"
+    diagram = RallyDiagram(rally_scenario(scenario), ("momp", "momp"))
+    rally = diagram.run(21)
+    assert rally.length >= 2
+    configurations = [side.GetSubsystemByName("hitting_configuration") for side in diagram.sides]
+    seeds = [c.seed(c.GetMyContextFromRoot(diagram.context)) for c in configurations]
+    assert len(set(seeds)) == 2
+    for k, side in enumerate(diagram.sides):
+        predictor = side.GetSubsystemByName("hitting_point_predictor")
+        balls = predictor.GetOutputPort("balls").Eval(predictor.GetMyContextFromRoot(
+            diagram.context))[0]
+        assert balls == sum(e.player == k for e in rally.exchanges)  # each return flew away
+    for k, exchange in enumerate(rally.exchanges):
+        targets = [(a.target_x, a.target_y)
+                   for a in draw_aims(scenario.rally.competitive, seeds[exchange.player], k // 2)]
+        assert min(np.hypot(*(np.asarray(exchange.landing) - t)) for t in targets) < 0.2

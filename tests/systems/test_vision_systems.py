@@ -316,8 +316,9 @@ def test_predictor_outputs_are_its_state_read_without_python():
         pred.GetInputPort("status").FixValue(ctx, [1.0, k * PERIOD])
         step(pred, ctx, k * PERIOD + 2 * PERIOD / 3)
     x = pred.layout(ctx)
-    assert x[1] == 5 * PERIOD and x[-14 + 7] == 1.0  # the estimate's time; valid
-    names = ("p_hit", "v_hit", "t_hit", "valid", "final", "spin_hit")
+    # the layout ends with the 12 published values, the bounce count (2) and the ball count
+    assert x[1] == 5 * PERIOD and x[-15 + 7] == 1.0  # the estimate's time; valid
+    names = ("p_hit", "v_hit", "t_hit", "valid", "final", "spin_hit", "balls")
 
     def read():
         for name in names:
@@ -326,7 +327,7 @@ def test_predictor_outputs_are_its_state_read_without_python():
 
     assert count_drake_calls(read)["total"] == 0
     published = np.concatenate([pred.GetOutputPort(n).Eval(ctx) for n in names])
-    assert np.array_equal(published, x[-14:-2])
+    assert np.array_equal(published, np.r_[x[-15:-3], x[-1:]])
 
 
 def test_estimator_outputs_are_its_state_read_without_python():

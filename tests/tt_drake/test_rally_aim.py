@@ -93,3 +93,12 @@ def test_playable_is_the_reach_box():
     assert not c.playable(None)
     assert "draws" in " ".join(CompetitiveAim(draws=0).problems())
     assert "playable_z" in " ".join(CompetitiveAim(playable_z=[1.2, 0.7]).problems())
+
+
+def test_against_a_learned_opponent_the_reach_is_the_learned_players():
+    c = CompetitiveAim(playable_z=[0.65, 1.15], learned_playable_z=[0.72, 1.1])
+    assert c.against(True).playable_z == [0.72, 1.1]
+    assert c.against(False) == c and c.against(False) is not c
+    assert c.playable_z == [0.65, 1.15]  # the scenario's settings are left as they are
+    assert "learned_playable_z" in " ".join(
+        CompetitiveAim(learned_playable_z=[1.2, 0.7]).problems())
