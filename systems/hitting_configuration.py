@@ -36,10 +36,10 @@ Ports: inputs ``p_hit`` (3), ``v_hit`` (3), ``t_hit`` (1, absolute), ``valid`` (
 only with ``aims``) from
 :class:`tt_drake.systems.hitting_point_predictor.HittingPointPredictor`; outputs ``theta_hit``
 (7), ``theta_dot_hit`` (7), ``valid`` (1) and ``theta_dot_hit_spinless`` (7: ``theta_dot_hit``
-unless ``use_spin``). It has no state: the outputs are a function of the
-inputs (and, with ``aims``, of the seed parameter), cached by Drake until the predictor publishes another prediction, and solved once per
-prediction (the three ports share one solution), so a player reads the configuration of the
-prediction it reads, at the same tick.
+unless ``use_spin``). It has no state: the outputs are a function of the inputs (and, with
+``aims``, of the seed parameter), cached by Drake until the predictor publishes another
+prediction, and solved once per prediction (the three ports share one solution), so a player
+reads the configuration of the prediction it reads, at the same tick.
 """
 
 import numpy as np
