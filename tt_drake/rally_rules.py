@@ -15,7 +15,8 @@ its own half. The rally ends at the first fault of the receiver (:func:`decide`)
 
 - ``missed``: the ball reached the floor without the receiver's racket touching it;
 - ``double_bounce``: it bounced twice on the receiver's half before the hit;
-- ``net``, ``own_half`` (it never reached the other side), ``out``, ``double_hit``: after the hit,
+- ``net``, ``own_half`` (it never reached the other side), ``out``, ``table_side`` (it struck a
+  side or end face of the table), ``double_hit``: after the hit,
   as :func:`tt_drake.referee_rules.after_hit` names them (a return that touches the net and
   lands on the opponent's half is an exchange);
 - ``no_landing``: nothing decided ``exchange_timeout`` seconds after the exchange began (the ball

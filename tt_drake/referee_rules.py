@@ -15,7 +15,9 @@ Outcome classes (one per episode), by the ITTF Laws 2.5-2.10 (docs/rules.md):
   twice on the robot's half before the hit: the point was lost there, whatever the stroke
   did), ``net`` (touched the net or a post after the hit and then did not reach the opponent's
   court), ``own_half`` (first landed on the robot's half), ``out`` (reached the floor without
-  landing on the table), ``double_hit``, ``no_landing`` (still in the air at the end).
+  landing on the table), ``table_side`` (struck a side or end face of the table: the playing
+  surface does not include the vertical sides of the tabletop, Law 2.1.2),
+  ``double_hit``, ``no_landing`` (still in the air at the end).
 
 Independently of the class, ``double_bounce`` is also recorded for a missed ball that bounced
 twice on the robot's half and ``robot_table`` (:data:`ROBOT_TABLE`) when the robot touched the
@@ -50,6 +52,8 @@ from tt_drake.constants import NET, TABLE, TARGET
 # Contact kinds.
 TABLE_CONTACT, NET_CONTACT, FLOOR_CONTACT, RACKET_CONTACT, ROBOT_CONTACT = (
     "table", "net", "floor", "racket", "robot")
+#: A contact with a side or end face of the table, below its playing surface.
+TABLE_SIDE_CONTACT = "table_side"
 #: The fault of a robot touching the table (the serve's outcome, the rally's fault kind).
 ROBOT_TABLE = "robot_table"
 
@@ -129,6 +133,8 @@ class ContactDetector:
         mid = tuple(0.5 * (p0[i] + p1[i]) for i in range(3))
         if lo_z < r + near:
             return FLOOR_CONTACT, mid
+        if any(self._at_table_side(p, r, near) for p in (p0, p1)):
+            return TABLE_SIDE_CONTACT, mid
         net_top = TABLE.surface_z + NET.height + r
         if (min(abs(p0[1]), abs(p1[1])) < 0.5 * NET.thickness + r + 0.05 and lo_z < net_top + near
                 and abs(mid[0]) < NET.half_span + 0.05):
@@ -144,6 +150,16 @@ class ContactDetector:
         if mid[1] < TABLE.robot_edge_y + 0.3:
             return ROBOT_CONTACT, mid
         return None, mid  # nothing is there to touch: not a contact
+
+    @staticmethod
+    def _at_table_side(p, r: float, near: float) -> bool:
+        """The ball (centre ``p``, radius ``r``) at a side or end face of the table: within
+        ``r + near`` outside the top's outline, between its underside and its top."""
+        hx, hy = 0.5 * TABLE.width, 0.5 * TABLE.length
+        dx, dy = abs(p[0]) - hx, abs(p[1]) - hy
+        outside = max(dx, dy)
+        return (-near < outside < r + near and dx < r + near and dy < r + near
+                and TABLE.surface_z - TABLE.collision_thickness - near < p[2] < TABLE.surface_z)
 
     @staticmethod
     def _over_table(p0, p1) -> bool:
@@ -211,8 +227,9 @@ def after_hit(events) -> Return:
     The first table contact decides: on the opponent's half (y > 0) a legal return, whether or
     not the ball touched the net on the way (Law 2.7.1); on the striker's half ``net`` after a
     net touch, else ``own_half``. The floor before any table contact is ``out`` (``net`` if the
-    ball touched the net and fell on the striker's side, y < 0); another racket or robot contact
-    is ``double_hit``. A net contact alone decides nothing: the ball may still drop over."""
+    ball touched the net and fell on the striker's side, y < 0); a side or end face of the table
+    is ``table_side``; another racket or robot contact is ``double_hit``. A net contact alone
+    decides nothing: the ball may still drop over."""
     net_touch = False
     for e in events:
         if e.kind == TABLE_CONTACT:
@@ -225,6 +242,8 @@ def after_hit(events) -> Return:
         elif e.kind == FLOOR_CONTACT:
             fault = "net" if net_touch and e.position[1] < 0.0 else "out"
             return Return(fault, None, net_touch, True)
+        elif e.kind == TABLE_SIDE_CONTACT:
+            return Return("table_side", None, net_touch, True)
         elif e.kind in (RACKET_CONTACT, ROBOT_CONTACT):
             return Return("double_hit", None, net_touch, True)
     return Return("net" if net_touch else "no_landing", None, net_touch, False)
@@ -235,7 +254,7 @@ def decides_return(events, event: ContactEvent) -> bool:
     the table or the floor after the racket's hit (:func:`judge` reads no further). A net
     contact does not (the ball may still drop onto the opponent's court), nor does a second
     racket event: one contact straddling two samples shows as two."""
-    return (event.kind in (TABLE_CONTACT, FLOOR_CONTACT)
+    return (event.kind in (TABLE_CONTACT, FLOOR_CONTACT, TABLE_SIDE_CONTACT)
             and any(e.kind == RACKET_CONTACT for e in events))
 
 

@@ -42,7 +42,8 @@ EPISODE_FIELDS: dict = {
     "net_touch": _scalar("the return touched the net assembly"),
     "on_target": _scalar("a legal return landing within referee.target_radius of the target"),
     "faults": _scalar("the referee's fault labels (empty for a clean episode): double_bounce, "
-                      "net, own_half, out, double_hit, no_landing, robot_table"),
+                      "net, own_half, out, table_side, double_hit, no_landing, "
+                      "robot_table"),
     "returnable": _scalar("with --ceiling: the bound calls this serve returnable (one of its "
                           "oracle strategies returned it legally)"),
     "returnable_by": _scalar("with --ceiling: the first oracle strategy that returned it, or "

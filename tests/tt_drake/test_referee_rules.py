@@ -16,6 +16,7 @@ from tt_drake.rally_rules import Exchange, RallyFault, receiver_after, table_fau
 from tt_drake.referee_rules import (
     ROBOT_TABLE,
     ContactDetector,
+    ContactEvent,
     RefereeConfig,
     judge,
     table_toucher,
@@ -317,3 +318,32 @@ def test_a_touch_over_a_rallys_samples_ends_it_on_the_touchers_point():
     assert receiver_after([]) == 0
     assert receiver_after([*exchanges, Exchange(1, 1.7, (-0.3, 0.9), 5.0, (0.0, 0.0, 0.0))]) == 0
 
+
+
+def test_a_return_striking_the_tables_end_face_is_a_table_side_fault():
+    """A ball struck from below the table's height that meets the striker's own end face: the
+    samples around the contact (a rally's, at 250 Hz: rising at 7.5 m/s, then bounced back)
+    are a contact with the table's side, not the robot's (the racket 0.2 m away), and after
+    the hit it is the ``table_side`` fault; a bounce on the top by the edge stays a table
+    contact, and the same jump far from the table and the robot is no contact."""
+    detector = ContactDetector(RefereeConfig(), MODEL)
+    edge = TABLE.robot_edge_y
+    racket = (-0.22, edge - 0.23, 0.70)
+    before = (0.596, (-0.187, edge - 0.033, 0.740), (1.39, 7.47, 2.26))
+    after = (0.600, (-0.183, edge - 0.030, 0.748), (0.83, -5.65, 1.67))
+    event = detector.detect(ContactDetector.sample(*before, racket=racket),
+                            ContactDetector.sample(*after, racket=racket))
+    assert event is not None and event.kind == "table_side"
+    hit = judge([ContactEvent(0.5, "racket", (-0.23, edge - 0.31, 0.65)), event])
+    assert hit.outcome == "fault" and hit.faults == ["table_side"] and not hit.returned
+    # on the top, 1 cm inside the end line, falling: a bounce on the table
+    top = detector.detect(
+        ContactDetector.sample(0.0, (0.1, edge + 0.01, TABLE.surface_z + R + 0.005),
+                               (0.0, -4.0, -2.0), racket=racket),
+        ContactDetector.sample(0.004, (0.1, edge + 0.01 - 0.016, TABLE.surface_z + R + 0.004),
+                               (0.0, -4.0, 1.8), racket=racket))
+    assert top is not None and top.kind == "table"
+    far = detector.detect(
+        ContactDetector.sample(0.0, (1.5, 0.0, 1.2), (0.0, 3.0, 0.0), racket=racket),
+        ContactDetector.sample(0.004, (1.5, 0.012, 1.2), (0.0, -3.0, 0.0), racket=racket))
+    assert far is None
