@@ -122,7 +122,8 @@ def build_player_side(player, scenario: Scenario, side: int, opponent=None):
     ``desired_acceleration`` (7). Every system with a ``play_again`` attribute plays again after
     each stroke, and every planner (a ``planner`` attribute whose config has a target) aims at
     the rally's target; with the competitive aim every system with an ``aims`` attribute gets
-    the scenario's, with the reach of ``opponent`` (the other side's player). Returns (diagram,
+    the scenario's, with the reach of ``opponent`` (the other side's player), unless its
+    ``takes_aims`` is False. Returns (diagram,
     the systems that draw random numbers, the player system: the one with a ``stroke`` output,
     or None)."""
     add_player = player_function(player)
@@ -156,7 +157,7 @@ def build_player_side(player, scenario: Scenario, side: int, opponent=None):
     # seed: such a system joins the seeded systems, after the others.
     if scenario.rally.aim == "competitive":
         for found in sub.GetSystems():
-            if hasattr(found, "aims"):
+            if hasattr(found, "aims") and getattr(found, "takes_aims", True):
                 found.aims = scenario.rally.competitive.against(
                     plays_learned_artefacts(opponent))
                 seeded = [*seeded, found]

@@ -151,7 +151,7 @@ class PlannerConfig:
     # The return's topspin (rad/s; negative: backspin) a brushed stroke makes
     # (tt_drake.spin_stroke); None: the flat stroke, the ball keeping the spin it came with.
     topspin: float | None = None
-    # Waiting at rest for the latest start of a direct hit (:meth:`StrokePlanner.plan`): the
+    # Waiting at rest for the latest start of a direct hit (:meth:`StrokePlanner.schedule`): the
     # player waits only while a hit started this long after now would still be feasible (s).
     # The window of start times it leaves is this long: one camera frame is the least, and then
     # a t_hit that moves a few ms between frames can close it before the player acts; three
@@ -418,11 +418,6 @@ class StrokePlanner:
         return within_effort(plan, self.arm.torques,
                              self.config.torque_fraction * self.effort_limit, now)
 
-    def plan(self, now: float, current: StagePlan, stroke: Stroke) -> StagePlan | None:
-        """The current plan up to ``now`` followed by the stroke; None to keep waiting, or if
-        the stroke is not feasible for the arm (:meth:`schedule` tells which)."""
-        return self.schedule(now, current, stroke)[0]
-
     def schedule(self, now: float, current: StagePlan,
                  stroke: Stroke) -> tuple[StagePlan | None, bool]:
         """(the current plan up to ``now`` followed by the stroke, False), or (None, True) to
@@ -459,27 +454,42 @@ class StrokeAims:
         self.base, self.aims = planner, aims
         self._chosen: dict[tuple[int, int], StrokePlanner | None] = {}
 
-    def planner(self, seed: int, stroke: int, p_hit, v_hit, t_hit,
-                spin) -> StrokePlanner | None:
-        """The planner of stroke ``stroke``'s aim (class docstring); None if no drawn aim
-        serves for the prediction (p_hit, v_hit, t_hit, spin) it is first asked with."""
-        key = (int(seed), int(stroke))
-        if key not in self._chosen:
+    def stroke(self, seed: int, index: int, p_hit, v_hit, t_hit, spin,
+               previous: Stroke | None = None) -> Stroke | None:
+        """Stroke ``index``'s stroke (``aimed``) for the prediction (p_hit, v_hit, t_hit,
+        spin), by its aim's planner (a correction of ``previous``, a stroke of the same aim);
+        None if no drawn aim served the prediction the aim was chosen on (class docstring) or
+        the arm cannot make it for this one."""
+        key = (int(seed), int(index))
+        if key in self._chosen:
+            planner = self._chosen[key]
+            found = None if planner is None else planner.stroke(p_hit, v_hit, t_hit, spin,
+                                                                previous)
+        else:
+            planner, found = self._choose(seed, index, p_hit, v_hit, t_hit, spin)
             if len(self._chosen) > 256:  # derived planners, cheap to make again
                 self._chosen.clear()
-            self._chosen[key] = None
-            for aim in draw_aims(self.aims, seed, stroke):
-                planner = self.base.aimed(aim)
-                found = planner.stroke(p_hit, v_hit, t_hit, spin, None)
-                if found is None:
-                    continue
-                cfg = planner.config
-                point = opponent_hitting_point(planner.model, found.p_hit, found.v_out,
-                                               found.spin_out, cfg.plane_y, cfg.band)
-                if self.aims.playable(point):
-                    self._chosen[key] = planner
-                    break
-        return self._chosen[key]
+            self._chosen[key] = planner
+        return None if found is None else dataclasses.replace(found, aimed=True)
+
+    def chosen(self, seed: int, index: int) -> StrokePlanner | None:
+        """The planner of the aim chosen for stroke ``index`` (None: none served, or not yet
+        asked)."""
+        return self._chosen.get((int(seed), int(index)))
+
+    def _choose(self, seed: int, index: int, p_hit, v_hit, t_hit, spin) -> tuple:
+        """(the planner of the first drawn aim that serves, its stroke), or (None, None)."""
+        for aim in draw_aims(self.aims, seed, index):
+            planner = self.base.aimed(aim)
+            found = planner.stroke(p_hit, v_hit, t_hit, spin, None)
+            if found is None:
+                continue
+            cfg = planner.config
+            point = opponent_hitting_point(planner.model, found.p_hit, found.v_out,
+                                           found.spin_out, cfg.plane_y, cfg.band)
+            if self.aims.playable(point):
+                return planner, found
+        return None, None
 
 
 class PlayerState(Immutable):
@@ -569,12 +579,9 @@ class AnalyticalPlayer(StagePlanPlayer):
         the stroke's chosen aim's (when the player has ``aims``), then the planner's own aim's.
         Each planner corrects only a stroke it planned itself (``Stroke.aimed``)."""
         if self._aims is not None:
-            aimed = self._aims.planner(self.seed(context), old.strokes, p_hit, v_hit, t_hit,
-                                       spin)
-            if aimed is not None:
-                previous = old.stroke if old.stroke is not None and old.stroke.aimed else None
-                stroke = aimed.stroke(p_hit, v_hit, t_hit, spin, previous)
-                yield None if stroke is None else dataclasses.replace(stroke, aimed=True)
+            previous = old.stroke if old.stroke is not None and old.stroke.aimed else None
+            yield self._aims.stroke(self.seed(context), old.strokes, p_hit, v_hit, t_hit, spin,
+                                    previous)
         previous = old.stroke if old.stroke is not None and not old.stroke.aimed else None
         yield self.planner.stroke(p_hit, v_hit, t_hit, spin, previous)
 

@@ -100,9 +100,15 @@ class HittingConfiguration(LeafSystem):
 
     @aims.setter
     def aims(self, aims: CompetitiveAim | None) -> None:
-        if aims is not None and self.source != "analytical":
+        if aims is not None and not self.takes_aims:
             raise ValueError("per-stroke aims need the analytical hitting configuration")
         self._aims = None if aims is None else StrokeAims(self.planner, aims)
+
+    @property
+    def takes_aims(self) -> bool:
+        """Whether the source can play per-stroke aims (the analytical one; a CrKR model
+        answers for the aim it learned)."""
+        return self.source == "analytical"
 
     def set_seed(self, context, seed: int) -> None:
         """The rally's seed, from which the per-stroke aims are drawn."""
@@ -127,8 +133,7 @@ class HittingConfiguration(LeafSystem):
             return q, qd, qd
         spin = np.zeros(3) if spin_hit is None else np.asarray(spin_hit, dtype=float)
         if self._aims is not None and stroke is not None:
-            aimed = self._aims.planner(*stroke, p_hit, v_hit, t_hit, spin)
-            found = None if aimed is None else aimed.stroke(p_hit, v_hit, t_hit, spin, None)
+            found = self._aims.stroke(*stroke, p_hit, v_hit, t_hit, spin)
             if found is not None:  # a brushed stroke: no spinless variant
                 return found.q_hit, found.qd_hit, found.qd_hit
         stroke = self.planner.stroke(p_hit, v_hit, t_hit, spin, None)

@@ -280,3 +280,23 @@ def test_learned_players_play_the_competitive_aim_ball_by_ball():
         targets = [(a.target_x, a.target_y)
                    for a in draw_aims(scenario.rally.competitive, seeds[exchange.player], k // 2)]
         assert min(np.hypot(*(np.asarray(exchange.landing) - t)) for t in targets) < 0.2
+
+
+def test_a_crkr_configuration_keeps_its_aim_in_a_competitive_rally():
+    """A learned player with the CrKR hitting configuration cannot play drawn aims: the
+    competitive rally leaves its configuration without aims (and unseeded), and gives the
+    analytical opponent's strokes the reach of a learned receiver."""
+    from tt_drake.diagrams.rally import RallyDiagram, rally_scenario
+    from tt_drake.diagrams.scenario import load_scenario
+    from tt_drake.models import shipped_artefact
+
+    scenario = load_scenario()
+    scenario.learned.library = str(shipped_artefact("library"))
+    scenario.learned.crkr = str(shipped_artefact("crkr"))
+    scenario.learned.configuration = "crkr"
+    scenario.rally.aim = "competitive"
+    diagram = RallyDiagram(rally_scenario(scenario), ("momp", "analytical"))
+    configuration = diagram.sides[0].GetSubsystemByName("hitting_configuration")
+    assert configuration.aims is None and configuration not in diagram.seeded
+    teacher = diagram.player_systems[1]
+    assert teacher.aims.playable_z == scenario.rally.competitive.learned_playable_z

@@ -135,7 +135,7 @@ def test_the_start_margin_leaves_the_stroke_a_window_of_several_frames(long_stro
         planner = StrokePlanner(arm=teacher.arm,
                                 config=PlannerConfig(start_margin=margin))
         starts = [now for now in np.arange(0.0, t_hit - 0.05, step)
-                  if planner.plan(now, rest, stroke) is not None]
+                  if planner.schedule(now, rest, stroke)[0] is not None]
         assert starts, margin
         window = starts[-1] - starts[0] + step
         assert margin - step <= window <= margin + 2 * step
@@ -146,15 +146,14 @@ def test_schedule_tells_waiting_from_a_stroke_the_arm_cannot_follow(long_stroke)
     """The same rally ball, from rest: 0.8 s before the hit the swing-back and stroke ask the
     arm for more torque than it has (refused); later the player waits (a direct hit started
     later is feasible); inside the start window it plans; after it the direct stroke is refused
-    again. A refusal is not a wait: the player then keeps its plan and the stroke that plan
-    follows. ``plan`` is the schedule's plan."""
+    again. A refusal is not a wait: the player then keeps its plan and tries its next
+    stroke."""
     planner, stroke = long_stroke
     rest = planner.awaiting_plan(0.0)
     kinds = []
     for now in np.arange(0.0, stroke.t_hit - 0.05, 0.004):
         plan, wait = planner.schedule(now, rest, stroke)
         assert not (wait and plan is not None)
-        assert (planner.plan(now, rest, stroke) is None) == (plan is None)
         kinds.append("plan" if plan is not None else "wait" if wait else "refused")
         if plan is not None:
             assert planner.feasible(plan, now)

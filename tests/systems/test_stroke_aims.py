@@ -33,9 +33,9 @@ def answer(config, context, balls):
 
 def test_each_ball_plays_its_drawn_aim_and_lands_there(planner):
     """Ball k of the rally with seed s is struck for the aim StrokeAims chooses from the draws
-    of (s, k): the racket of the configuration, by forward kinematics, sends the ball (impact
-    law with the rolling exit, flight with drag and Magnus) to that aim's target; another ball
-    index or seed gives another stroke; without aims the planner's own aim."""
+    of (s, k): the configuration's (theta_hit, theta_dot_hit) are that aim's stroke (which the
+    next test lands on its target); another ball index or seed gives another stroke; without
+    aims the planner's own aim."""
     aims = CompetitiveAim()
     config = HittingConfiguration("analytical", planner=planner, use_spin=True)
     config.aims = aims
@@ -48,8 +48,11 @@ def test_each_ball_plays_its_drawn_aim_and_lands_there(planner):
     strokes = []
     for ball in (0, 1, 2):
         q, qd = answer(config, context, ball)
-        chosen = chooser.planner(77, ball, P_HIT, V_HIT, T_HIT, SPIN)
+        first = chooser.stroke(77, ball, P_HIT, V_HIT, T_HIT, SPIN)
+        chosen = chooser.chosen(77, ball)
         assert chosen is not None and chosen.config.topspin is not None
+        assert first.aimed and np.array_equal(first.q_hit, chooser.stroke(
+            77, ball, P_HIT, V_HIT, T_HIT, SPIN).q_hit)  # chosen once, then kept
         assert chosen.config.target_x in [a.target_x for a in draw_aims(aims, 77, ball)]
         expected = chosen.stroke(P_HIT, V_HIT, T_HIT, SPIN, None)
         np.testing.assert_allclose(q, expected.q_hit, atol=1e-12)
@@ -68,8 +71,9 @@ def test_the_aimed_stroke_sends_the_ball_to_its_target_with_its_topspin(planner)
     land on the aim's target, with the aim's topspin."""
     aims = CompetitiveAim()
     for seed in (5, 6, 7):
-        chosen = StrokeAims(planner, aims).planner(seed, 0, P_HIT, V_HIT, T_HIT, SPIN)
-        stroke = chosen.stroke(P_HIT, V_HIT, T_HIT, SPIN, None)
+        chooser = StrokeAims(planner, aims)
+        stroke = chooser.stroke(seed, 0, P_HIT, V_HIT, T_HIT, SPIN)
+        chosen = chooser.chosen(seed, 0)
         bounce = BallModel().first_bounce(np.r_[P_HIT, stroke.v_out, stroke.spin_out], 2.0)
         target = (chosen.config.target_x, chosen.config.target_y)
         np.testing.assert_allclose(bounce.position[:2], target, atol=0.02)
