@@ -50,20 +50,29 @@ def shipped_artefact(kind: str, artefact_set: str = "paper") -> Path:
     return Path(str(resources.files(__name__).joinpath(folder, SHIPPED_ARTEFACTS[kind])))
 
 
+def artefact_settings(artefact_set: "str | ArtefactSet") -> ArtefactSet:
+    """The settings of an artefact set: a shipped set's name, or an :class:`ArtefactSet`."""
+    return artefact_set if isinstance(artefact_set, ArtefactSet) else ARTEFACT_SETS[artefact_set]
+
+
+def artefact_files(artefact_set: "str | ArtefactSet") -> dict[str, str]:
+    """The paths of a set's ``library``, ``crkr`` and ``predictor`` artefacts, by kind (a
+    shipped set's name, or an :class:`ArtefactSet` whose folder is a path)."""
+    if isinstance(artefact_set, ArtefactSet):
+        return {kind: str(Path(artefact_set.folder) / name)
+                for kind, name in SHIPPED_ARTEFACTS.items()}
+    return {kind: str(shipped_artefact(kind, artefact_set)) for kind in SHIPPED_ARTEFACTS}
+
+
 def use_artefact_set(learned, artefact_set: "str | ArtefactSet" = "paper",
                      configuration_given: bool = False) -> None:
     """Point a scenario's ``learned`` settings (``LearnedPlayerConfig``) at an artefact set (a
     shipped set's name, or an :class:`ArtefactSet` whose folder is a path, such as a
     ``tt-drake reproduce`` run's export): its three artefacts, its moving goal (kept on if
     already on) and, unless the caller chose one, its hitting configuration."""
-    if isinstance(artefact_set, ArtefactSet):
-        chosen = artefact_set
-        learned.library, learned.crkr, learned.predictor = (
-            str(Path(chosen.folder) / name) for name in SHIPPED_ARTEFACTS.values())
-    else:
-        chosen = ARTEFACT_SETS[artefact_set]
-        learned.library, learned.crkr, learned.predictor = (
-            str(shipped_artefact(kind, artefact_set)) for kind in SHIPPED_ARTEFACTS)
+    chosen = artefact_settings(artefact_set)
+    files = artefact_files(artefact_set)
+    learned.library, learned.crkr, learned.predictor = (files[kind] for kind in SHIPPED_ARTEFACTS)
     learned.moving_goal = learned.moving_goal or chosen.moving_goal
     if not configuration_given:
         learned.configuration = chosen.configuration

@@ -194,16 +194,21 @@ def add_learned_options(p: argparse.ArgumentParser, artefact_sets: bool = True) 
                                            " (default: the scenario's if it names one, else "
                                            "analytical: the rally aims elsewhere than the "
                                            "serve task the shipped CrKR model learned)"))
-    if not artefact_sets:
-        return
+    if artefact_sets:
+        add_artefacts_option(p, "(paper: tt_drake/models/learned/, the default; hard: "
+                                "tt_drake/models/learned-hard/, trained on spin, real and rally "
+                                "serves, played with the hitting DMP's moving goal; DIR: a set "
+                                "tt-drake reproduce exported to DIR/artefacts, played with its "
+                                "protocol's settings)")
+
+
+def add_artefacts_option(p: argparse.ArgumentParser, sets: str) -> None:
+    """``--artefacts``: a shipped set's name or an exported set's folder; ``sets`` says what
+    each stands for in this command."""
     p.add_argument("--artefacts", default=None, type=artefact_set_or_folder,
                    metavar="{" + ",".join(ARTEFACT_SET_NAMES) + "} or DIR",
                    help="learned players: the artefact set to play with when no file is named "
-                        "(paper: tt_drake/models/learned/, the default; hard: "
-                        "tt_drake/models/learned-hard/, trained on spin, real and rally serves, "
-                        "played with the hitting DMP's moving goal; DIR: a set tt-drake "
-                        "reproduce exported to DIR/artefacts, played with its protocol's "
-                        "settings)")
+                        + sets)
 
 
 def add_perception_option(p: argparse.ArgumentParser) -> None:
@@ -267,23 +272,33 @@ def use_shipped_artefacts(player: str | None, scenario, artefact_set: str | None
     ``crkr`` player's is always its CrKR model). A set is the whole player: naming files too is
     refused (CliError, one line)."""
     learned = scenario.learned
-    named = learned.library or learned.crkr or learned.predictor
-    if artefact_set is not None and named:
-        raise CliError("--artefacts picks a shipped set of library, CrKR and predictor; "
-                       "name either it or artefact files, not both")
+    named = names_artefacts(learned, artefact_set)
     if not plays_learned_artefacts(player) or named:
         return
-    chosen = artefact_set or "paper"
-    if chosen in ARTEFACT_SET_NAMES:
-        use_artefact_set(learned, chosen, configuration_given or player == "crkr")
-        where = f"the shipped artefacts in {shipped_artefact('library', chosen).parent}"
-    else:
-        use_artefact_set(learned, exported_artefact_set(chosen),
-                         configuration_given or player == "crkr")
-        where = f"the exported artefacts in {chosen}"
+    chosen, where = chosen_artefact_set(artefact_set)
+    use_artefact_set(learned, chosen, configuration_given or player == "crkr")
     print(f"tt-drake: the {player} player uses {where} (hitting configuration: "
           f"{learned.configuration}, moving goal: {'on' if learned.moving_goal else 'off'})",
           file=sys.stderr)
+
+
+def names_artefacts(learned, artefact_set: str | None) -> bool:
+    """Whether the scenario's ``learned`` settings (or the command line) name artefact files;
+    CliError (one line) if a set is named as well: a set is the whole player."""
+    named = bool(learned.library or learned.crkr or learned.predictor)
+    if artefact_set is not None and named:
+        raise CliError("--artefacts picks a shipped set of library, CrKR and predictor; "
+                       "name either it or artefact files, not both")
+    return named
+
+
+def chosen_artefact_set(artefact_set: str | None):
+    """(the set ``--artefacts`` names, by default ``paper``: a shipped set's name or the
+    :class:`tt_drake.models.ArtefactSet` exported to a folder; where it is, for the notice)."""
+    chosen = artefact_set or "paper"
+    if chosen in ARTEFACT_SET_NAMES:
+        return chosen, f"the shipped artefacts in {shipped_artefact('library', chosen).parent}"
+    return exported_artefact_set(chosen), f"the exported artefacts in {chosen}"
 
 
 def check_serves(scenario) -> None:

@@ -5,6 +5,7 @@ import sys
 
 from tt_drake.constants import MAX_EXCHANGES
 from tt_drake.diagrams.commands.options import (
+    add_artefacts_option,
     add_command,
     add_html_option,
     add_json_option,
@@ -15,13 +16,15 @@ from tt_drake.diagrams.commands.options import (
     add_workers_option,
     check_learned,
     check_player_name,
+    chosen_artefact_set,
+    names_artefacts,
     one_of,
     positive_int,
     scenario_from_options,
     serve_count,
 )
 from tt_drake.diagrams.players import player_names, plays_learned_artefacts
-from tt_drake.models import shipped_artefact
+from tt_drake.models import artefact_files, artefact_settings
 from tt_drake.rally_aim import AIMS
 
 
@@ -51,6 +54,12 @@ def register(subparsers) -> None:
     add_workers_option(p)
     add_scenario_options(p)
     add_learned_options(p, artefact_sets=False)
+    add_artefacts_option(p, "(paper: tt_drake/models/learned/, the default; hard: "
+                            "tt_drake/models/learned-hard/, trained on spin, real and rally "
+                            "serves, with the hitting DMP's moving goal; DIR: a set tt-drake "
+                            "reproduce exported to DIR/artefacts). The rally plays a set's "
+                            "primitive library and moving goal, with the rally's hitting "
+                            "configuration and the physical-model hitting point (docs/rally.md)")
     p.add_argument("--spinless-configuration", action="store_true",
                    help="learned players: the analytical hitting configuration for a "
                         "spinless ball (the serve's), instead of for the predicted spin at "
@@ -77,7 +86,7 @@ def run(args) -> None:
     scenario.learned.spin_aware = not args.spinless_configuration
     if args.aim is not None:
         scenario.rally.aim = args.aim
-    use_rally_artefacts(players, scenario)
+    use_rally_artefacts(players, scenario, args.artefacts)
     for player in players:
         check_learned(player, scenario)
     data = run_rallies(scenario, players, args.rallies, args.seed, args.start, args.html,
@@ -89,21 +98,27 @@ def run(args) -> None:
             print(f"wrote {path}")
 
 
-def use_rally_artefacts(players: tuple, scenario) -> None:
-    """Learned players given no artefact play the rally with the shipped primitive library
-    (``momp``) and, only with ``--configuration crkr``, the shipped CrKR model; the hitting
-    point comes from the physical model: the shipped GPR and CrKR learned launcher serves and
-    the serve task's target, and fail on the other robot's returns (docs/rally.md)."""
+def use_rally_artefacts(players: tuple, scenario, artefact_set: str | None = None) -> None:
+    """Learned players given no artefact play the rally with a set's primitive library
+    (``momp``) and moving goal, the set ``--artefacts`` names (by default the shipped ``paper``
+    set) and, only with ``--configuration crkr``, its CrKR model; the hitting point comes from
+    the physical model: the shipped GPRs and CrKR models learned launcher serves and the serve
+    task's target, and fail on the other robot's returns (docs/rally.md). A set named with
+    artefact files is refused (CliError, one line)."""
     learned = scenario.learned
-    if not any(plays_learned_artefacts(p) for p in players) or learned.library or learned.crkr \
-            or learned.predictor:
+    named = names_artefacts(learned, artefact_set)
+    if not any(plays_learned_artefacts(p) for p in players) or named:
         return
+    chosen, where = chosen_artefact_set(artefact_set)
+    files = artefact_files(chosen)
     if "momp" in players:
-        learned.library = str(shipped_artefact("library"))
+        learned.library = files["library"]
     if learned.configuration == "crkr":
-        learned.crkr = str(shipped_artefact("crkr"))
+        learned.crkr = files["crkr"]
+    learned.moving_goal = learned.moving_goal or artefact_settings(chosen).moving_goal
     spin = (", for the predicted spin" if learned.configuration == "analytical"
             and learned.spin_aware else "")
-    print(f"tt-drake: the learned players use the shipped artefacts in "
-          f"{shipped_artefact('library').parent} (hitting configuration: "
-          f"{learned.configuration}{spin}; hitting point: the physical model)", file=sys.stderr)
+    print(f"tt-drake: the learned players use {where} (hitting configuration: "
+          f"{learned.configuration}{spin}; moving goal: "
+          f"{'on' if learned.moving_goal else 'off'}; hitting point: the physical model)",
+          file=sys.stderr)

@@ -153,6 +153,9 @@ def test_summary_counts_lengths_caps_and_each_players_success():
     (["--players", "momp", "analytical", "--library", "/nonexistent/library.npz", "--crkr",
       "/nonexistent/crkr.npz"], "/nonexistent/"),
     (["--max-exchanges", "0"], "must be > 0"),
+    (["--players", "momp", "momp", "--artefacts", "hard", "--library", "mine.npz"],
+     "--artefacts"),
+    (["--artefacts", "nowhere"], "neither an artefact set"),
 ])
 def test_bad_rally_input_exits_2_with_one_line_and_no_file(tmp_path, capsys, args, message):
     from tt_drake.diagrams.cli import main
@@ -187,6 +190,39 @@ def test_rally_cli_writes_the_summary_and_one_record_per_rally(tmp_path, capsys)
     assert main(["rally", "--quiet", "--players", "idle", "idle", "--rallies", "1",
                  "--spinless-configuration", "--json", str(out)]) == 0
     assert json.loads(out.read_text())["scenario"]["learned"]["spin_aware"] is False
+
+
+def test_a_rally_plays_an_artefact_sets_library_and_moving_goal_with_its_own_aim(capsys):
+    """``--artefacts hard``: the hard set's primitive library and moving goal; the hitting
+    configuration stays the rally's (analytical, or the set's CrKR model only when asked for)
+    and the hitting point the physical model's (no predictor); no flag: the paper set, as
+    before."""
+    from tt_drake.diagrams.cli import build_parser
+    from tt_drake.diagrams.commands.options import scenario_from_options
+    from tt_drake.diagrams.commands.rally import use_rally_artefacts
+    from tt_drake.models import shipped_artefact
+
+    parser = build_parser()
+
+    def learned(*extra):
+        args = parser.parse_args(["rally", "--players", "momp", "momp", *extra])
+        args.player = None
+        scenario = scenario_from_options(args)
+        if args.configuration is None:
+            scenario.learned.configuration = "analytical"
+        use_rally_artefacts(tuple(args.players), scenario, args.artefacts)
+        return scenario.learned
+
+    hard = learned("--artefacts", "hard")
+    assert hard.library == str(shipped_artefact("library", "hard"))
+    assert hard.moving_goal and hard.configuration == "analytical"
+    assert hard.crkr == "" and hard.predictor == ""
+    assert "learned-hard" in capsys.readouterr().err
+    crkr = learned("--artefacts", "hard", "--configuration", "crkr")
+    assert crkr.crkr == str(shipped_artefact("crkr", "hard")) and crkr.predictor == ""
+    for extra in ((), ("--artefacts", "paper")):
+        paper = learned(*extra)
+        assert paper.library == str(shipped_artefact("library")) and not paper.moving_goal
 
 
 @pytest.mark.slow
