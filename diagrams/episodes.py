@@ -109,6 +109,13 @@ def add_perception(builder: DiagramBuilder, world: World, scenario: Scenario,
     return [camera], estimator
 
 
+def teacher_planner_config(scenario: Scenario) -> PlannerConfig:
+    """The teacher's planner for a scenario: aiming at its referee's target, with its
+    ``teacher`` settings (:class:`tt_drake.diagrams.scenario.TeacherConfig`)."""
+    return PlannerConfig(target_x=scenario.referee.target_x, target_y=scenario.referee.target_y,
+                         correction_fallbacks=scenario.teacher.correction_fallbacks)
+
+
 def add_analytical_player(builder: DiagramBuilder, world: World, controller,
                           scenario: Scenario, player_type=None, config=None) -> list:
     """The teacher: camera -> estimator -> physical-model planner -> polynomial stages.
@@ -117,8 +124,7 @@ def add_analytical_player(builder: DiagramBuilder, world: World, controller,
     referee target)."""
     seeded, estimator = add_perception(builder, world, scenario)
     if config is None:
-        config = PlannerConfig(target_x=scenario.referee.target_x,
-                               target_y=scenario.referee.target_y)
+        config = teacher_planner_config(scenario)
     player = builder.AddNamedSystem("analytical_player",
                                     (player_type or AnalyticalPlayer)(StrokePlanner(config=config),
                                                                       setpoint_lead=SETPOINT_LEAD,
@@ -236,8 +242,7 @@ def add_learned_player(builder: DiagramBuilder, world: World, controller, scenar
     if scenario.learned.configuration == "crkr":
         configuration = HittingConfiguration("crkr", model=learned["crkr"])
     else:
-        config = PlannerConfig(target_x=scenario.referee.target_x,
-                               target_y=scenario.referee.target_y)
+        config = teacher_planner_config(scenario)
         # With the moving goal (the hard protocol) the teacher's aim gets the predicted spin.
         configuration = HittingConfiguration(
             "analytical", planner=StrokePlanner(config=config),

@@ -92,6 +92,18 @@ class LearnedPlayerConfig:
 
 
 @dataclass
+class TeacherConfig:
+    """The analytical player's planner settings a scenario may change
+    (:class:`tt_drake.systems.analytical_player.PlannerConfig`). ``correction_fallbacks``: a
+    correction of the committed stroke that the effort check refuses tries the planner's
+    fallbacks in turn (less of the spin compensated, the ball met off the blade's centre), as
+    a first plan does; off, the teacher keeps the committed stroke (docs/analytical_player.md,
+    "Corrections")."""
+
+    correction_fallbacks: bool = False
+
+
+@dataclass
 class Scenario:
     name: str = "default"
     world: WorldConfig = field(default_factory=WorldConfig)
@@ -109,6 +121,7 @@ class Scenario:
     perception: str = "camera"
     # ``tt-drake rally`` (docs/rally.md): the players' aim, the cap on exchanges.
     rally: RallyConfig = field(default_factory=RallyConfig)
+    teacher: TeacherConfig = field(default_factory=TeacherConfig)
 
 
 class ScenarioError(ValueError, BadInputError):

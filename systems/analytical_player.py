@@ -70,7 +70,13 @@ from tt_drake.racket_law import (
     racket_for_return,
     solve_outgoing_velocity,
 )
-from tt_drake.rally_aim import Aim, CompetitiveAim, draw_aims, opponent_hitting_point
+from tt_drake.rally_aim import (
+    Aim,
+    CompetitiveAim,
+    draw_aims,
+    opponent_hitting_point,
+    passes_own_end,
+)
 from tt_drake.spin_stroke import spin_stroke_candidates
 from tt_drake.stages import (
     AWAITING,
@@ -127,6 +133,9 @@ class PlannerConfig:
     correct_time: float = 0.005  # s
     correct_spin: float = 20.0  # rad/s
     correct_lead: float = 0.08  # s
+    # A correction the effort check refuses tries the fallbacks below (stroke_spins x
+    # blade_offsets) in turn, as a first plan does; False: the first stroke the arm reaches only.
+    correction_fallbacks: bool = False
     max_branch_change: float = 0.5  # rad: a re-plan moving theta_hit further is another IK branch
     research_distance: float = 0.05  # m: a hitting point this far from the last re-aims fully
     torque_fraction: float = 0.9  # of the effort limits a plan may ask for
@@ -302,6 +311,22 @@ class StrokePlanner:
 
         Small corrections keep the previous flight time (one Broyden solve); a hitting point that
         moved more than ``research_distance`` searches all candidate flight times again."""
+        return next(self._solutions(p_hit, v_hit, t_hit, spin, previous, first_only=True), None)
+
+    def strokes(self, p_hit, v_hit, t_hit, spin, previous: Stroke | None) -> Iterator[Stroke]:
+        """Every stroke the arm reaches for a stimulus, in the fallbacks' order (:meth:`stroke`
+        is the first): each spin share of ``stroke_spins`` with each of ``blade_offsets``, then
+        the ``reach_in`` points; strokes that jump to another arm configuration for a hitting
+        point that barely moved are left out. Solved lazily: a caller that takes the first
+        stroke its own check accepts (:meth:`correct`'s effort check) solves no more."""
+        for stroke in self._solutions(p_hit, v_hit, t_hit, spin, previous, first_only=False):
+            if stroke is not None:
+                yield stroke
+
+    def _solutions(self, p_hit, v_hit, t_hit, spin, previous: Stroke | None,
+                   first_only: bool) -> Iterator[Stroke | None]:
+        """The strokes of :meth:`strokes`; with ``first_only`` only the first solution found,
+        or None in its place if it jumped to another arm configuration (:meth:`stroke`)."""
         close = previous is not None and float(
             np.linalg.norm(np.asarray(p_hit) - previous.p_hit)) < self.config.research_distance
         seed = previous.q_hit if previous is not None else None
@@ -312,33 +337,33 @@ class StrokePlanner:
             spins = (previous.spin_share, *(x for x in spins if x != previous.spin_share))
             offsets = (previous.blade_offset,
                        *(x for x in offsets if x != previous.blade_offset))
-        found, reach = None, 0.0
-        for reach in (0.0, *self.config.reach_in):
-            found = self._first_feasible(reach_point(p_hit, reach), v_hit,
-                                         np.asarray(spin, dtype=float), spins, offsets,
-                                         contact_offset, seed, previous if close else None)
-            if found is not None:
-                break
-        if found is None:
-            return None
-        share, offset, v_out, spin_out, flight_time, racket, ik, qd_hit = found
-        if close and (np.abs(ik.q - previous.q_hit).max() > self.config.max_branch_change):
-            return None  # the solver jumped to another arm configuration: keep the last stroke
         replans = previous.replans + 1 if previous is not None else 1
-        return Stroke(np.asarray(p_hit), np.asarray(v_hit), float(t_hit), np.asarray(spin),
-                      v_out,
-                      racket.normal, racket.velocity, np.asarray(ik.q), np.asarray(qd_hit),
-                      ik.position_error, ik.angle_error, float(flight_time), replans,
-                      float(share), float(offset), float(reach), np.asarray(spin_out))
+        spin = np.asarray(spin, dtype=float)
+        for reach in (0.0, *self.config.reach_in):
+            for found in self._feasible(reach_point(p_hit, reach), v_hit, spin, spins, offsets,
+                                        contact_offset, seed, previous if close else None):
+                share, offset, v_out, spin_out, flight_time, racket, ik, qd_hit = found
+                if close and (np.abs(ik.q - previous.q_hit).max()
+                              > self.config.max_branch_change):
+                    # The solver jumped to another arm configuration: not this stroke.
+                    stroke = None
+                else:
+                    stroke = Stroke(np.asarray(p_hit), np.asarray(v_hit), float(t_hit), spin,
+                                    v_out, racket.normal, racket.velocity, np.asarray(ik.q),
+                                    np.asarray(qd_hit), ik.position_error, ik.angle_error,
+                                    float(flight_time), replans, float(share), float(offset),
+                                    float(reach), np.asarray(spin_out))
+                yield stroke
+                if first_only:
+                    return
 
-    def _first_feasible(self, p_hit, v_hit, spin, spins, offsets, contact_offset, seed,
-                        previous):
-        """The first (share, offset, v_out, spin_out, flight time, racket, IK, theta_dot_hit)
-        the arm reaches within its joint speed limits: for each spin share s and each blade
+    def _feasible(self, p_hit, v_hit, spin, spins, offsets, contact_offset, seed,
+                  previous) -> Iterator[tuple]:
+        """Each (share, offset, v_out, spin_out, flight time, racket, IK, theta_dot_hit) the arm
+        reaches within its joint speed limits, in order: for each spin share s and each blade
         offset in turn (shares outermost), every aim of :meth:`aims` for the spin s omega, best
-        first, with its racket by the racket law and the blade centre of :func:`blade_centre`;
-        None if there is none. The first pair is the plain stroke (s = 1, the ball on the
-        centre)."""
+        first, with its racket by the racket law and the blade centre of :func:`blade_centre`.
+        The first is the plain stroke (s = 1, the ball on the centre)."""
         for share in spins:
             compensated = share * spin
             aims = self._strokes(p_hit, v_hit, compensated, previous)
@@ -350,8 +375,7 @@ class StrokePlanner:
                         continue
                     qd_hit = self.arm.joint_velocities_free_spin(ik.q, racket.velocity)
                     if np.all(np.abs(qd_hit) <= self.limits.velocity):
-                        return share, offset, v_out, spin_out, flight_time, racket, ik, qd_hit
-        return None
+                        yield share, offset, v_out, spin_out, flight_time, racket, ik, qd_hit
 
     def _strokes(self, p_hit, v_hit, spin, previous: Stroke | None) -> list:
         """(v_out, spin_out, flight time, racket) to try, best first, for a ball spinning at
@@ -447,8 +471,9 @@ class StrokeAims:
     """A competitive player's per-stroke aims (:mod:`tt_drake.rally_aim`): stroke k of the
     rally with seed s plays the first of its drawn aims (:func:`draw_aims`) whose stroke the
     ``planner``'s arm can make and whose return the opponent can play
-    (:func:`opponent_hitting_point`, :meth:`CompetitiveAim.playable`); chosen at the stroke's
-    first prediction and kept for it."""
+    (:func:`opponent_hitting_point`, :meth:`CompetitiveAim.playable`) and passes over the
+    striker's own end line (:func:`passes_own_end`); chosen at the stroke's first prediction
+    and kept for it."""
 
     def __init__(self, planner: StrokePlanner, aims: CompetitiveAim):
         self.base, self.aims = planner, aims
@@ -487,7 +512,8 @@ class StrokeAims:
             cfg = planner.config
             point = opponent_hitting_point(planner.model, found.p_hit, found.v_out,
                                            found.spin_out, cfg.plane_y, cfg.band)
-            if self.aims.playable(point):
+            if self.aims.playable(point) and passes_own_end(
+                    found.p_hit, found.v_out, found.spin_out, self.aims.end_clearance):
                 return planner, found
         return None, None
 
@@ -573,17 +599,21 @@ class AnalyticalPlayer(StagePlanPlayer):
         """The episode's seed set by :meth:`set_seed` (0 if none was)."""
         return int(context.get_numeric_parameter(self._seed_index).GetAtIndex(0))
 
-    def _strokes(self, context, old: PlayerState, p_hit, v_hit, t_hit,
-                 spin) -> Iterator[Stroke | None]:
+    def _strokes(self, context, old: PlayerState, p_hit, v_hit, t_hit, spin,
+                 fallbacks: bool = False) -> Iterator[Stroke | None]:
         """The strokes to try for the prediction, best first (None: the arm cannot reach it):
-        the stroke's chosen aim's (when the player has ``aims``), then the planner's own aim's.
+        the stroke's chosen aim's (when the player has ``aims``), then the planner's own aim's,
+        with ``fallbacks`` each of its fallbacks the arm reaches (:meth:`StrokePlanner.strokes`).
         Each planner corrects only a stroke it planned itself (``Stroke.aimed``)."""
         if self._aims is not None:
             previous = old.stroke if old.stroke is not None and old.stroke.aimed else None
             yield self._aims.stroke(self.seed(context), old.strokes, p_hit, v_hit, t_hit, spin,
                                     previous)
         previous = old.stroke if old.stroke is not None and not old.stroke.aimed else None
-        yield self.planner.stroke(p_hit, v_hit, t_hit, spin, previous)
+        if fallbacks:
+            yield from self.planner.strokes(p_hit, v_hit, t_hit, spin, previous)
+        else:
+            yield self.planner.stroke(p_hit, v_hit, t_hit, spin, previous)
 
     def _update(self, context, state):
         old = self.player_state(context)
@@ -680,7 +710,13 @@ class AnalyticalPlayer(StagePlanPlayer):
         if (not before_cutoff or t_hit - now < cfg.correct_lead
                 or not self.planner.needs_correction(old.stroke, p_hit, t_hit, spin)):
             return
-        for stroke in self._strokes(context, old, p_hit, v_hit, t_hit, spin):
+        # A correction the effort check refuses tries the planner's fallbacks in turn (a smaller
+        # share of the spin compensated, the contact off the blade centre): after the robot-side
+        # bounce the prediction can move by several centimetres (spin about the ball's direction
+        # of travel makes no Magnus force, so the filter sees it only in the bounce), and the
+        # full correction may ask the shoulder for more than the committed stroke left it.
+        for stroke in self._strokes(context, old, p_hit, v_hit, t_hit, spin,
+                                    fallbacks=cfg.correction_fallbacks):
             plan = None if stroke is None else self.planner.correct(now, old.plan, stroke)
             if plan is not None:
                 state.get_mutable_abstract_state(self._state_index).set_value(

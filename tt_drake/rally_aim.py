@@ -18,8 +18,9 @@ with; :mod:`tt_drake.spin_stroke`).
   the first of ``draws`` aims drawn in turn whose return the opponent can play
   (:func:`opponent_hitting_point`: the opponent, the same robot mirrored through the net,
   chooses its hitting point on the return's predicted path by its own rule, and that point lies
-  in the ``playable_x`` and ``playable_z`` ranges the arm reaches); if none, the cooperative
-  aim.
+  in the ``playable_x`` and ``playable_z`` ranges the arm reaches, and whose return, struck
+  from behind the striker's own end line, passes over it: :func:`passes_own_end`); if none,
+  the cooperative aim.
 """
 
 import dataclasses
@@ -27,7 +28,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tt_drake.ball_model import BallModel, PlaneCrossing
+from tt_drake.ball_model import BallModel, BallModelParams, PlaneCrossing
+from tt_drake.constants import BALL, TABLE
 from tt_drake.hitting_time import HittingBand, choose_hitting_point
 
 AIMS = ("cooperative", "competitive")
@@ -47,7 +49,9 @@ class CompetitiveAim:
     stroke may draw (``draws``) to find one whose return lands in the opponent's reach: its
     hitting point across (``playable_x``, m, the opponent's frame) and in height
     (``playable_z``, m; ``learned_playable_z`` when the opponent is a learned player, whose
-    motor primitives meet low balls less well: :meth:`against`)."""
+    motor primitives meet low balls less well: :meth:`against`); and how high a return struck
+    from behind the striker's own end line passes over it (``end_clearance``, m,
+    :func:`passes_own_end`)."""
 
     x: list[float] = _pair(-0.55, 0.55)
     y: list[float] = _pair(0.45, 1.3)
@@ -62,6 +66,9 @@ class CompetitiveAim:
     playable_x: list[float] = _pair(-0.6, 0.5)
     playable_z: list[float] = _pair(0.65, 1.15)
     learned_playable_z: list[float] = _pair(0.7, 1.15)
+    # A return struck from behind the striker's own end line passes over it with the ball's
+    # bottom at least this high above the playing surface (m; :func:`passes_own_end`).
+    end_clearance: float = 0.02
 
     def against(self, learned: bool) -> "CompetitiveAim":
         """These settings for a stroke whose opponent is a learned player (``learned``: its
@@ -96,6 +103,9 @@ class CompetitiveAim:
         for name in ("push_topspin", "block_topspin"):
             if not np.isfinite(getattr(self, name)):
                 out.append(f"{prefix}{name} must be finite, got {getattr(self, name)}")
+        if not (np.isfinite(self.end_clearance) and self.end_clearance >= 0.0):
+            out.append(f"{prefix}end_clearance must be a finite number >= 0, got "
+                       f"{self.end_clearance}")
         return out
 
 
@@ -133,6 +143,29 @@ def _draw(competitive: CompetitiveAim, rng: np.random.Generator) -> Aim:
     topspin = {"drive": drive, "push": float(competitive.push_topspin),
                "block": float(competitive.block_topspin)}[kind]
     return Aim(x, y, flight_time, topspin, kind)
+
+
+#: The flight model of :func:`passes_own_end`: the table as it is (the planners' model takes it
+#: larger, which would let a ball below the surface bounce off the margin behind the end line).
+_FLIGHT = BallModel(BallModelParams(), dt=0.01)
+
+
+def passes_own_end(p_hit, v_out, spin_out, clearance: float) -> bool:
+    """Whether a return leaving ``p_hit`` with ``v_out`` and ``spin_out`` (the striker's frame)
+    passes over the striker's own end line: struck behind it (y < -L/2) the ball's centre
+    crosses the end's vertical plane y = -L/2 at least R + ``clearance`` above the playing
+    surface (a lower ball strikes the table's end, the ``table_side`` fault of Law 2.1.2:
+    the playing surface excludes the sides of the tabletop). A return struck over the table
+    passes."""
+    end = TABLE.robot_edge_y
+    p_hit = np.asarray(p_hit, dtype=float)
+    if p_hit[1] >= end:
+        return True
+    state = np.concatenate([p_hit, np.asarray(v_out, dtype=float),
+                            np.asarray(spin_out, dtype=float)])
+    crossing = _FLIGHT.predict_plane(state, end, max_time=1.0)
+    return (crossing is not None
+            and crossing.position[2] >= TABLE.surface_z + BALL.radius + clearance)
 
 
 def opponent_hitting_point(model: BallModel, p_hit, v_out, spin_out, plane_y: float,

@@ -48,3 +48,17 @@ def test_a_registered_player_can_be_removed_again():
 def test_a_player_needs_a_name(name):
     with pytest.raises(PlayerError, match="a player's name must be a non-empty word"):
         register_player(name, episodes.add_idle_player)
+
+
+def test_the_scenarios_teacher_settings_reach_the_analytical_player():
+    """``teacher.correction_fallbacks`` (off by default; on in the shipped
+    ``correction_fallbacks`` scenario) is the teacher's planner setting in the serve diagram,
+    which keeps aiming at the scenario's referee target."""
+    from tt_drake.diagrams.episodes import ServeDiagram
+
+    for name, on in (("default", False), ("correction_fallbacks", True)):
+        scenario = load_scenario(name)
+        scenario.referee.target_x = -0.2
+        config = ServeDiagram(scenario, "analytical").player.planner.config
+        assert config.correction_fallbacks is on
+        assert (config.target_x, config.target_y) == (-0.2, scenario.referee.target_y)

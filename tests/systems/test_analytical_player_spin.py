@@ -7,7 +7,12 @@ import pytest
 from tt_drake.constants import PLANES
 from tt_drake.serves import FIXED_SERVE
 from tt_drake.stages import HITTING
-from tt_drake.systems.analytical_player import AnalyticalPlayer, StrokePlanner, planner_ball_model
+from tt_drake.systems.analytical_player import (
+    AnalyticalPlayer,
+    PlannerConfig,
+    StrokePlanner,
+    planner_ball_model,
+)
 
 
 def test_prediction_starts_from_the_estimated_spin():
@@ -23,11 +28,11 @@ def test_prediction_starts_from_the_estimated_spin():
     assert np.linalg.norm(spinless[0] - p) > 0.005  # Magnus of 150 rad/s over ~0.2 s
 
 
-def run_serve(spin_bias_after_commit):
+def run_serve(spin_bias_after_commit, player=None):
     """The fixed serve's true flight (p, v, spin) fed as the estimate at 60 Hz; after the commit
-    the spin estimate is offset by ``spin_bias_after_commit``. Returns the player, its context and
-    the desired states sampled every 2 ms."""
-    player = AnalyticalPlayer()
+    the spin estimate is offset by ``spin_bias_after_commit``. Returns the player (default: the
+    teacher), its context and the desired states sampled every 2 ms."""
+    player = player or AnalyticalPlayer()
     context = player.CreateDefaultContext()
     model = planner_ball_model()
     launch = np.array(FIXED_SERVE)
@@ -70,3 +75,57 @@ def test_a_committed_stroke_is_corrected_when_the_spin_moves():
     np.testing.assert_allclose(qd_end, stroke.qd_hit, atol=1e-9)
     q = np.array([s[1][:7] for s in samples])
     assert np.abs(np.diff(q, axis=0)).max() < 10.0 * 2e-3  # joint speed stays below 10 rad/s
+
+
+class _WeakShoulder(StrokePlanner):
+    """A planner whose effort check refuses every correction that compensates all the spin
+    (``Stroke.spin_share`` 1): the shoulder has nothing left for it."""
+
+    def correct(self, now, current, stroke):
+        return None if stroke.spin_share == 1.0 else super().correct(now, current, stroke)
+
+
+@pytest.mark.parametrize("fallbacks", [True, False])
+def test_a_correction_the_arm_refuses_falls_back_to_a_smaller_spin_share(fallbacks):
+    """With ``correction_fallbacks`` a refused correction tries the planner's fallbacks in order
+    (:meth:`StrokePlanner.strokes`): the first the arm can follow is the stroke for the moved
+    prediction that compensates half the spin, and the plan reaches its (theta_hit,
+    theta_dot_hit) at its t_hit. Without, the committed stroke is kept."""
+    kept_player, kept_context, _ = run_serve(0.0)
+    kept = kept_player.player_state(kept_context)
+    planner = _WeakShoulder(config=PlannerConfig(correction_fallbacks=fallbacks))
+    player, context, samples = run_serve(np.array([40.0, 0.0, 0.0]), AnalyticalPlayer(planner))
+    state = player.player_state(context)
+    assert state.committed
+    if not fallbacks:
+        assert state.stroke.spin_share == 1.0
+        np.testing.assert_array_equal(state.stroke.q_hit, kept.stroke.q_hit)
+        return
+    stroke = state.stroke
+    assert stroke.spin_share == 0.5 and stroke.blade_offset == 0.0
+    assert np.linalg.norm(stroke.spin - kept.stroke.spin) > 20.0  # planned on the moved spin
+    # the planner's own fallback order: the full share's strokes came first
+    first = next(planner.strokes(stroke.p_hit, stroke.v_hit, stroke.t_hit, stroke.spin, None))
+    assert first.spin_share == 1.0
+    hits = [seg for stage, seg in state.plan.segments if stage == HITTING]
+    q_end, qd_end, _ = hits[-1].evaluate(stroke.t_hit)
+    np.testing.assert_allclose(q_end, stroke.q_hit, atol=1e-9)
+    np.testing.assert_allclose(qd_end, stroke.qd_hit, atol=1e-9)
+    q = np.array([s[1][:7] for s in samples])
+    assert np.abs(np.diff(q, axis=0)).max() < 10.0 * 2e-3
+
+
+def test_strokes_begin_with_stroke_and_follow_the_fallbacks_order():
+    """:meth:`StrokePlanner.strokes` starts with :meth:`StrokePlanner.stroke`'s stroke and goes
+    through the spin shares outermost, each with the blade offsets in turn."""
+    planner = StrokePlanner()
+    model = planner_ball_model()
+    hit = model.predict_plane(np.array(FIXED_SERVE), PLANES.hitting_y)
+    args = (hit.position, hit.velocity, hit.t, np.array([60.0, 0.0, 10.0]), None)
+    strokes = list(planner.strokes(*args))
+    first = planner.stroke(*args)
+    np.testing.assert_array_equal(strokes[0].q_hit, first.q_hit)
+    kinds = [(s.spin_share, s.blade_offset) for s in strokes]
+    order = [(a, b) for a in planner.config.stroke_spins for b in planner.config.blade_offsets]
+    assert sorted(set(kinds), key=order.index) == list(dict.fromkeys(kinds))
+    assert {s for s, _ in kinds} == set(planner.config.stroke_spins)

@@ -4,8 +4,8 @@ from the configured ranges and kinds."""
 import numpy as np
 import pytest
 
-from tt_drake.ball_model import BallModel, PlaneCrossing
-from tt_drake.constants import BALL, PLANES, TABLE
+from tt_drake.ball_model import BallModel, BallModelParams, PlaneCrossing
+from tt_drake.constants import BALL, GRAVITY, PLANES, TABLE
 from tt_drake.hitting_time import HittingBand
 from tt_drake.racket_law import solve_outgoing_velocity
 from tt_drake.rally_aim import (
@@ -14,6 +14,7 @@ from tt_drake.rally_aim import (
     draw_aim,
     draw_aims,
     opponent_hitting_point,
+    passes_own_end,
 )
 
 
@@ -102,3 +103,41 @@ def test_against_a_learned_opponent_the_reach_is_the_learned_players():
     assert c.playable_z == [0.65, 1.15]  # the scenario's settings are left as they are
     assert "learned_playable_z" in " ".join(
         CompetitiveAim(learned_playable_z=[1.2, 0.7]).problems())
+
+
+def _crossing_height(p, v, dt=1e-5):
+    """The ball centre's height where it crosses the striker's end plane y = -L/2, by explicit
+    small steps of v' = g - k |v| v (no spin), independent of the ball model's RK4."""
+    p, v = np.array(p, dtype=float), np.array(v, dtype=float)
+    k, g = BallModelParams().drag_k, np.array([0.0, 0.0, -GRAVITY])
+    while p[1] < TABLE.robot_edge_y:
+        p_next = p + dt * v
+        v = v + dt * (g - k * np.linalg.norm(v) * v)
+        if p_next[1] >= TABLE.robot_edge_y:
+            s = (TABLE.robot_edge_y - p[1]) / (p_next[1] - p[1])
+            return p[2] + s * (p_next[2] - p[2])
+        p = p_next
+    return p[2]
+
+
+@pytest.mark.parametrize("vz", [-0.5, 0.0, 1.0, 2.0, 3.0, 4.0])
+def test_a_return_from_behind_the_end_passes_it_only_above_the_surface(vz):
+    """A return struck 0.3 m behind the striker's end line, below the table's height, passes
+    only if its centre crosses the end's plane at least R + clearance above the playing surface
+    (else it strikes the table's end: Law 2.1.2); one struck over the table always passes."""
+    p, v, clearance = [0.1, -1.67, 0.70], [0.0, 6.0, vz], 0.02
+    z = _crossing_height(p, v)
+    threshold = TABLE.surface_z + BALL.radius + clearance
+    if abs(z - threshold) > 1e-3:  # away from the threshold the two integrations agree
+        assert passes_own_end(p, v, np.zeros(3), clearance) == (z >= threshold)
+    assert passes_own_end([0.1, -1.2, 0.70], v, np.zeros(3), clearance)
+
+
+def test_the_end_check_sees_a_mix_of_both_and_a_bad_clearance_is_named():
+    """The grid above holds returns on both sides of the threshold, and the setting is
+    checked like the others."""
+    heights = [_crossing_height([0.1, -1.67, 0.70], [0.0, 6.0, vz])
+               for vz in (-0.5, 0.0, 1.0, 2.0, 3.0, 4.0)]
+    threshold = TABLE.surface_z + BALL.radius + 0.02
+    assert min(heights) < threshold < max(heights)
+    assert "end_clearance" in " ".join(CompetitiveAim(end_clearance=-0.1).problems())
