@@ -20,8 +20,9 @@ from tt_drake.seeds import episode_seed
 # Joint-side no-load speed (rad/s) of the stock WAM drives at their 48 V design voltage: the
 # motors' no-load speeds (100.218 rad/s for J1-J4, 192.309 for J5-J6, 569.022 for J7) over the
 # drive ratios (42, 28.25, 28.25, 18, 9.48, 9.48, 14.93): Barrett's motor and drive
-# specifications as tabulated in UW-Advanced-Robotics-Lab/lab-wiki,
-# docs/Waterloo-Steel:Spec-Hardware.md. J2 and J3 share a differential, so theirs is approximate.
+# specifications as tabulated on the Waterloo Steel robot's hardware specification page
+# (GitHub UW-Advanced-Robotics-Lab/lab-wiki). J2 and J3 share a differential, so theirs is
+# approximate.
 NO_LOAD_SPEED = np.array([100.218 / 42.0, 100.218 / 28.25, 100.218 / 28.25, 100.218 / 18.0,
                           192.309 / 9.48, 192.309 / 9.48, 569.022 / 14.93])
 
