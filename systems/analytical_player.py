@@ -51,7 +51,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector
 
 from tt_drake import wam_params as wp
 from tt_drake.ball_model import BallModel, BallModelParams, CompliantBounceBallModel
@@ -92,6 +91,7 @@ from tt_drake.stages import (
 )
 from tt_drake.systems.hitting_ik import SHOULDER, HittingIK
 from tt_drake.systems.immutable import Immutable
+from tt_drake.systems.seed_parameter import SeedParameter
 from tt_drake.systems.stage_player import StagePlanPlayer, remaining
 
 
@@ -311,7 +311,7 @@ class StrokePlanner:
 
         Small corrections keep the previous flight time (one Broyden solve); a hitting point that
         moved more than ``research_distance`` searches all candidate flight times again."""
-        return next(self._solutions(p_hit, v_hit, t_hit, spin, previous, first_only=True), None)
+        return next(self._solutions(p_hit, v_hit, t_hit, spin, previous), None)
 
     def strokes(self, p_hit, v_hit, t_hit, spin, previous: Stroke | None) -> Iterator[Stroke]:
         """Every stroke the arm reaches for a stimulus, in the fallbacks' order (:meth:`stroke`
@@ -319,14 +319,15 @@ class StrokePlanner:
         the ``reach_in`` points; strokes that jump to another arm configuration for a hitting
         point that barely moved are left out. Solved lazily: a caller that takes the first
         stroke its own check accepts (:meth:`correct`'s effort check) solves no more."""
-        for stroke in self._solutions(p_hit, v_hit, t_hit, spin, previous, first_only=False):
+        for stroke in self._solutions(p_hit, v_hit, t_hit, spin, previous):
             if stroke is not None:
                 yield stroke
 
-    def _solutions(self, p_hit, v_hit, t_hit, spin, previous: Stroke | None,
-                   first_only: bool) -> Iterator[Stroke | None]:
-        """The strokes of :meth:`strokes`; with ``first_only`` only the first solution found,
-        or None in its place if it jumped to another arm configuration (:meth:`stroke`)."""
+    def _solutions(self, p_hit, v_hit, t_hit, spin,
+                   previous: Stroke | None) -> Iterator[Stroke | None]:
+        """Each arm solution of :meth:`strokes` as its stroke, in order, or None in its place
+        when it jumped to another arm configuration; lazy, so :meth:`stroke` (the first item)
+        solves no further."""
         close = previous is not None and float(
             np.linalg.norm(np.asarray(p_hit) - previous.p_hit)) < self.config.research_distance
         seed = previous.q_hit if previous is not None else None
@@ -354,8 +355,6 @@ class StrokePlanner:
                                     float(flight_time), replans, float(share), float(offset),
                                     float(reach), np.asarray(spin_out))
                 yield stroke
-                if first_only:
-                    return
 
     def _feasible(self, p_hit, v_hit, spin, spins, offsets, contact_offset, seed,
                   previous) -> Iterator[tuple]:
@@ -532,7 +531,7 @@ class PlayerState(Immutable):
         self.seen, self.bounces, self.strokes = seen, bounces or BounceCount(), strokes
 
 
-class AnalyticalPlayer(StagePlanPlayer):
+class AnalyticalPlayer(SeedParameter, StagePlanPlayer):
     """``corrections``: after the hitting stage has begun, re-plan its rest when the prediction
     moves more than the racket forgives (:meth:`StrokePlanner.needs_correction`): the spin a
     launcher serve carries is seen only at the robot-side bounce, which for most serves comes
@@ -569,7 +568,7 @@ class AnalyticalPlayer(StagePlanPlayer):
         self.corrections = corrections
         self.play_again = play_again
         self.aims = aims
-        self._seed_index = self.DeclareNumericParameter(BasicVector([0.0]))
+        self.declare_seed()  # the episode's seed, from which the per-stroke aims are drawn
         self._estimate = self.DeclareVectorInputPort("estimated_state", 6)
         self._spin = self.DeclareVectorInputPort("estimated_spin", 3)
         self._status = self.DeclareVectorInputPort("estimator_status", 2)
@@ -590,14 +589,6 @@ class AnalyticalPlayer(StagePlanPlayer):
 
     def player_state(self, context) -> PlayerState:
         return context.get_abstract_state(self._state_index).get_value()
-
-    def set_seed(self, context, seed: int) -> None:
-        """The episode's seed, from which the per-stroke aims are drawn (class docstring)."""
-        context.get_mutable_numeric_parameter(self._seed_index).SetAtIndex(0, float(seed))
-
-    def seed(self, context) -> int:
-        """The episode's seed set by :meth:`set_seed` (0 if none was)."""
-        return int(context.get_numeric_parameter(self._seed_index).GetAtIndex(0))
 
     def _strokes(self, context, old: PlayerState, p_hit, v_hit, t_hit, spin,
                  fallbacks: bool = False) -> Iterator[Stroke | None]:

@@ -21,14 +21,15 @@ episode are a pure function of it.
 import math
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import LeafSystem
 
 from tt_drake.camera_model import CameraConfig, CameraModel
+from tt_drake.systems.seed_parameter import SeedParameter
 
 _NO_FRAME = (math.nan, math.nan, math.nan, math.nan, 0.0)
 
 
-class BallCamera(LeafSystem):
+class BallCamera(SeedParameter, LeafSystem):
     def __init__(self, config: CameraConfig | None = None):
         super().__init__()
         self.config = config or CameraConfig()
@@ -36,17 +37,11 @@ class BallCamera(LeafSystem):
         self._lat = self.config.latency_frames
         self._draws_cache: tuple[tuple[int, int], object] | None = None
         self._ball = self.DeclareVectorInputPort("ball_state", 13)
-        self._seed_index = self.DeclareNumericParameter(BasicVector([0.0]))
+        self.declare_seed()
         self._xd = self.DeclareDiscreteState(np.array([0.0, *(_NO_FRAME * self._lat)]))
         self._delivered = self.DeclareDiscreteState(np.array(_NO_FRAME))
         self.DeclarePeriodicDiscreteUpdateEvent(self.config.period, 0.0, self._update)
         self.DeclareStateOutputPort("measurement", self._delivered)
-
-    def set_seed(self, context, seed: int) -> None:
-        context.get_mutable_numeric_parameter(self._seed_index).SetAtIndex(0, float(seed))
-
-    def seed(self, context) -> int:
-        return int(context.get_numeric_parameter(self._seed_index).GetAtIndex(0))
 
     def _draws(self, seed: int, block: int):
         if self._draws_cache is None or self._draws_cache[0] != (seed, block):

@@ -19,9 +19,10 @@ import math
 from dataclasses import dataclass, field
 
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector, LeafSystem, NumericParameterIndex
+from pydrake.systems.framework import LeafSystem
 
 from tt_drake.serves import DEFAULT_VY_RANGE, DEFAULT_X_RANGE, Serve, serve_sampler
+from tt_drake.systems.seed_parameter import SeedParameter
 
 
 @dataclass
@@ -55,25 +56,18 @@ class LauncherConfig:
         return out
 
 
-class BallLauncher(LeafSystem):
+class BallLauncher(SeedParameter, LeafSystem):
     def __init__(self, config: LauncherConfig | None = None):
         super().__init__()
         self.config = config or LauncherConfig()
         self.sampler = serve_sampler(self.config)
-        self._seed_index = self.DeclareNumericParameter(BasicVector([0.0]))
-        depends_on_seed = {self.numeric_parameter_ticket(NumericParameterIndex(self._seed_index))}
+        self.declare_seed()
+        depends_on_seed = {self.seed_ticket()}
         self._serve_port = self.DeclareAbstractOutputPort(
             "serve", lambda: AbstractValue.Make(object()), self._calc_serve,
             prerequisites_of_calc=depends_on_seed)
         self.DeclareVectorOutputPort("launch_state", 9, self._calc_launch_state,
                                      prerequisites_of_calc={self._serve_port.cache_entry().ticket()})
-
-    def set_seed(self, context, seed: int) -> None:
-        """Choose the episode: the serve is a pure function of ``seed``."""
-        context.get_mutable_numeric_parameter(self._seed_index).SetAtIndex(0, float(seed))
-
-    def seed(self, context) -> int:
-        return int(context.get_numeric_parameter(self._seed_index).GetAtIndex(0))
 
     def _calc_serve(self, context, output):
         output.set_value(self.sampler.sample(self.seed(context)))

@@ -43,19 +43,20 @@ reads the configuration of the prediction it reads, at the same tick.
 """
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import LeafSystem
 
 from tt_drake.learned_player import ConfigurationModel
 from tt_drake.racket_law import racket_for_return
 from tt_drake.rally_aim import CompetitiveAim
 from tt_drake.stimulus import PAPER_STIMULUS, compose_stimulus
 from tt_drake.systems.analytical_player import StrokeAims, StrokePlanner
+from tt_drake.systems.seed_parameter import SeedParameter
 
 SOURCES = ("crkr", "analytical")
 _NO_ANSWER = np.zeros(22)
 
 
-class HittingConfiguration(LeafSystem):
+class HittingConfiguration(SeedParameter, LeafSystem):
     def __init__(self, source: str = "crkr", model: ConfigurationModel | None = None,
                  planner=None, use_spin: bool = False):
         super().__init__()
@@ -73,12 +74,12 @@ class HittingConfiguration(LeafSystem):
         self._valid = self.DeclareVectorInputPort("valid", 1)
         self._spin = self.DeclareVectorInputPort("spin_hit", 3)
         self._balls = self.DeclareVectorInputPort("balls", 1)
-        self._seed_index = self.DeclareNumericParameter(BasicVector([0.0]))
+        self.declare_seed()  # the rally's seed, from which the per-stroke aims are drawn
         self._aims: StrokeAims | None = None
         self._layout = getattr(model, "stimulus", PAPER_STIMULUS)
         self._uses_spin = (source == "crkr" and "spin_hit" in self._layout) or (
             source == "analytical" and use_spin)
-        # ((stimulus, stroke), answer): a pure function's cache
+        # ((stimulus, ball), answer): a pure function's cache
         self._memo: tuple = (None, _NO_ANSWER)
         # The seed is a parameter: a competitive stroke's aim depends on it.
         deps = {self.all_input_ports_ticket(), self.all_parameters_ticket()}
@@ -110,30 +111,22 @@ class HittingConfiguration(LeafSystem):
         answers for the aim it learned)."""
         return self.source == "analytical"
 
-    def set_seed(self, context, seed: int) -> None:
-        """The rally's seed, from which the per-stroke aims are drawn."""
-        context.get_mutable_numeric_parameter(self._seed_index).SetAtIndex(0, float(seed))
-
-    def seed(self, context) -> int:
-        """The seed set by :meth:`set_seed` (0 if none was)."""
-        return int(context.get_numeric_parameter(self._seed_index).GetAtIndex(0))
-
     @property
     def uses_spin(self) -> bool:
         """Whether the answer depends on the ``spin_hit`` input."""
         return self._uses_spin
 
-    def solve(self, p_hit, v_hit, t_hit, spin_hit=None, stroke: tuple[int, int] | None = None):
+    def solve(self, p_hit, v_hit, t_hit, spin_hit=None, ball: tuple[int, int] | None = None):
         """(theta_hit, theta_dot_hit, theta_dot_hit_spinless) or None if the source has no
-        answer (IK failed). ``stroke``: (seed, ball index) of a competitive stroke, whose aim
+        answer (IK failed). ``ball``: (seed, ball index) of a competitive stroke, whose aim
         is tried first (module docstring)."""
         if self.source == "crkr":
             s = compose_stimulus(self._layout, p_hit, v_hit, spin_hit)
             q, qd, _ = self.model.predict(s, variance=False)
             return q, qd, qd
         spin = np.zeros(3) if spin_hit is None else np.asarray(spin_hit, dtype=float)
-        if self._aims is not None and stroke is not None:
-            found = self._aims.stroke(*stroke, p_hit, v_hit, t_hit, spin)
+        if self._aims is not None and ball is not None:
+            found = self._aims.stroke(*ball, p_hit, v_hit, t_hit, spin)
             if found is not None:  # a brushed stroke: no spinless variant
                 return found.q_hit, found.qd_hit, found.qd_hit
         stroke = self.planner.stroke(p_hit, v_hit, t_hit, spin, None)
@@ -160,14 +153,14 @@ class HittingConfiguration(LeafSystem):
         stimulus = (*self._p.Eval(context), *self._v.Eval(context), self._t.Eval(context)[0])
         if self._uses_spin:
             stimulus += tuple(self._spin.Eval(context)) if self._spin.HasValue(context) else ()
-        stroke = None
+        ball = None
         if self._aims is not None and self._balls.HasValue(context):
-            stroke = (self.seed(context), int(self._balls.Eval(context)[0]))
-        if (stimulus, stroke) == self._memo[0]:
+            ball = (self.seed(context), int(self._balls.Eval(context)[0]))
+        if (stimulus, ball) == self._memo[0]:
             return self._memo[1]
         solved = self.solve(np.array(stimulus[:3]), np.array(stimulus[3:6]), stimulus[6],
-                            np.array(stimulus[7:10]) if len(stimulus) == 10 else None, stroke)
+                            np.array(stimulus[7:10]) if len(stimulus) == 10 else None, ball)
         answer = (_NO_ANSWER if solved is None
                   else np.r_[solved[0], solved[1], 1.0, solved[2]])
-        self._memo = ((stimulus, stroke), answer)
+        self._memo = ((stimulus, ball), answer)
         return answer

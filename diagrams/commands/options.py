@@ -195,20 +195,19 @@ def add_learned_options(p: argparse.ArgumentParser, artefact_sets: bool = True) 
                                            "analytical: the rally aims elsewhere than the "
                                            "serve task the shipped CrKR model learned)"))
     if artefact_sets:
-        add_artefacts_option(p, "(paper: tt_drake/models/learned/, the default; hard: "
-                                "tt_drake/models/learned-hard/, trained on spin, real and rally "
-                                "serves, played with the hitting DMP's moving goal; DIR: a set "
-                                "tt-drake reproduce exported to DIR/artefacts, played with its "
-                                "protocol's settings)")
+        add_artefacts_option(p, "played with its protocol's settings")
 
 
-def add_artefacts_option(p: argparse.ArgumentParser, sets: str) -> None:
-    """``--artefacts``: a shipped set's name or an exported set's folder; ``sets`` says what
-    each stands for in this command."""
+def add_artefacts_option(p: argparse.ArgumentParser, exported: str, more: str = "") -> None:
+    """``--artefacts``: a shipped set's name or an exported set's folder; ``exported`` says how
+    this command plays an exported set, ``more`` what else it says."""
     p.add_argument("--artefacts", default=None, type=artefact_set_or_folder,
                    metavar="{" + ",".join(ARTEFACT_SET_NAMES) + "} or DIR",
                    help="learned players: the artefact set to play with when no file is named "
-                        + sets)
+                        "(paper: tt_drake/models/learned/, the default; hard: "
+                        "tt_drake/models/learned-hard/, trained on spin, real and rally serves, "
+                        "played with the hitting DMP's moving goal; DIR: a set tt-drake "
+                        f"reproduce exported to DIR/artefacts, {exported}){more}")
 
 
 def add_perception_option(p: argparse.ArgumentParser) -> None:

@@ -54,12 +54,10 @@ def register(subparsers) -> None:
     add_workers_option(p)
     add_scenario_options(p)
     add_learned_options(p, artefact_sets=False)
-    add_artefacts_option(p, "(paper: tt_drake/models/learned/, the default; hard: "
-                            "tt_drake/models/learned-hard/, trained on spin, real and rally "
-                            "serves, with the hitting DMP's moving goal; DIR: a set tt-drake "
-                            "reproduce exported to DIR/artefacts). The rally plays a set's "
-                            "primitive library and moving goal, with the rally's hitting "
-                            "configuration and the physical-model hitting point (docs/rally.md)")
+    add_artefacts_option(p, "with its moving goal",
+                         ". The rally plays a set's primitive library and moving goal, with the "
+                         "rally's hitting configuration and the physical-model hitting point "
+                         "(docs/rally.md)")
     p.add_argument("--spinless-configuration", action="store_true",
                    help="learned players: the analytical hitting configuration for a "
                         "spinless ball (the serve's), instead of for the predicted spin at "
