@@ -75,7 +75,8 @@ class OracleStrategy:
 
     def planner_config(self, scenario: Scenario) -> PlannerConfig:
         x, y = self.target or (scenario.referee.target_x, scenario.referee.target_y)
-        config = PlannerConfig(target_x=x, target_y=y, band=self.band, plane_y=self.plane_y)
+        config = PlannerConfig(target_x=x, target_y=y, band=self.band, plane_y=self.plane_y,
+                               drive_voltage=scenario.controller.drive_voltage)
         if self.stroke_spins is not None:
             config = dataclasses.replace(config, stroke_spins=self.stroke_spins)
         if self.reach_in:

@@ -111,9 +111,11 @@ def add_perception(builder: DiagramBuilder, world: World, scenario: Scenario,
 
 def teacher_planner_config(scenario: Scenario) -> PlannerConfig:
     """The teacher's planner for a scenario: aiming at its referee's target, with its
-    ``teacher`` settings (:class:`tt_drake.diagrams.scenario.TeacherConfig`)."""
+    ``teacher`` settings (:class:`tt_drake.diagrams.scenario.TeacherConfig`) and planning
+    within its arm's drives (``controller.drive_voltage``)."""
     return PlannerConfig(target_x=scenario.referee.target_x, target_y=scenario.referee.target_y,
-                         correction_fallbacks=scenario.teacher.correction_fallbacks)
+                         correction_fallbacks=scenario.teacher.correction_fallbacks,
+                         drive_voltage=scenario.controller.drive_voltage)
 
 
 def add_analytical_player(builder: DiagramBuilder, world: World, controller,
@@ -253,7 +255,7 @@ def add_learned_player(builder: DiagramBuilder, world: World, controller, scenar
         learned.get("library"), learned.get("stages"), arm=HittingIK(),
         setpoint_lead=SETPOINT_LEAD, setpoint_period=SERVO_PERIOD,
         stimulus=None if crkr is None else crkr.stimulus,
-        config=momp_config(scenario.learned.moving_goal)))
+        config=momp_config(scenario.learned.moving_goal, scenario.controller.drive_voltage)))
     # The measured arm: the player holds when the arm no longer follows its plan.
     builder.Connect(world.plant.get_state_output_port(world.robot),
                     player.GetInputPort("arm_state"))

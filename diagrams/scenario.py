@@ -29,7 +29,7 @@ from tt_drake.systems.aerodynamics import AerodynamicsConfig
 from tt_drake.systems.ball_launcher import LauncherConfig
 from tt_drake.systems.ball_oracle import PERCEPTIONS
 from tt_drake.systems.world import ModelFileError, WorldConfig, is_explicit_path, model_path
-from tt_drake.wam_params import EFFORT_LIMIT
+from tt_drake.wam_params import EFFORT_LIMIT, SUPPLY_VOLTAGE_RANGE
 
 
 def _zeros7() -> list[float]:
@@ -46,7 +46,12 @@ class ControllerConfig:
     of mass ``inertia_scale`` times; the simulated arm has joint friction the controller does not
     know, ``tau_j = -joint_coulomb[j] tanh(v_j / coulomb_velocity) - joint_viscous[j] v_j``
     (N m, N m s/rad, rad/s), and Gaussian motor torque noise of standard deviation
-    ``torque_noise[j]`` (N m), drawn once per 500 Hz servo tick from the episode's seed."""
+    ``torque_noise[j]`` (N m), drawn once per 500 Hz servo tick from the episode's seed.
+
+    ``drive_voltage`` (V): the arm's DC drives at this supply voltage limit each joint's torque
+    by its speed (back EMF: none left at the no-load speed; :mod:`tt_drake.drives`), in the
+    simulation and in the players' effort checks; 0 (the default): ideal drives, the effort
+    limits only. Barrett's motors are designed for 48 V; the WAM's supply takes 24-90 V."""
 
     kp: list[float] = field(default_factory=lambda: [900.0] * 7)
     ki: list[float] = field(default_factory=lambda: [0.0] * 7)
@@ -57,11 +62,13 @@ class ControllerConfig:
     joint_coulomb: list[float] = field(default_factory=_zeros7)
     coulomb_velocity: float = 0.1
     torque_noise: list[float] = field(default_factory=_zeros7)
+    drive_voltage: float = 0.0
 
     def problems(self) -> list[str]:
         """What is wrong with the values: the ``controller.*`` rules of :data:`FIELD_RULES`
         (seven finite values per joint list, gains >= 0, kp and kd > 0, friction and noise in
-        [0, the joint's effort limit], scales in [0.1, 10], coulomb_velocity in [0.01, 10])."""
+        [0, the joint's effort limit], scales in [0.1, 10], coulomb_velocity in [0.01, 10],
+        drive_voltage 0 or in the supply's 24-90 V)."""
         return rule_problems(self, "controller")
 
 
@@ -320,6 +327,11 @@ FIELD_RULES: dict[str, Check] = {
     "controller.coulomb_velocity": number(minimum=COULOMB_VELOCITY_RANGE[0],
                                           maximum=COULOMB_VELOCITY_RANGE[1]),
     "controller.torque_noise": JOINT_FRICTION,
+    "controller.drive_voltage": lambda v: (
+        number()(v) or (None if v == 0.0 or SUPPLY_VOLTAGE_RANGE[0] <= v <= SUPPLY_VOLTAGE_RANGE[1]
+                        else f"must be 0 (ideal drives) or in the WAM supply's "
+                             f"{SUPPLY_VOLTAGE_RANGE[0]:g}-{SUPPLY_VOLTAGE_RANGE[1]:g} V "
+                             f"(got {v:g})")),
     "after_crossing": number(above=0.0, maximum=60.0),
 }
 

@@ -54,7 +54,12 @@ from tt_drake.systems.ball_camera import BallCamera
 from tt_drake.systems.ball_launcher import BallLauncher
 from tt_drake.systems.rally_referee import RallyReferee
 from tt_drake.systems.referee import RacketCentre, Referee
-from tt_drake.systems.wam import RACKET_CENTER_FRAME, add_joint_faults, add_wam_controller
+from tt_drake.systems.wam import (
+    RACKET_CENTER_FRAME,
+    add_drive_limits,
+    add_joint_faults,
+    add_wam_controller,
+)
 from tt_drake.systems.world import World, add_world, set_ball_state
 from tt_drake.wam_params import AWAITING
 
@@ -271,7 +276,8 @@ def _table_top(world: World) -> list:
 def _add_controller(builder, scenario, world: World, robot, side: int, robots: int,
                     station: Station) -> None:
     """Robot ``side``'s InverseDynamicsController (its desired inputs and commanded torques
-    exported) and, for the serve's robot, the scenario's joint faults."""
+    exported), its drives with ``controller.drive_voltage`` and, for the serve's robot, the
+    scenario's joint faults."""
     c = scenario.controller
     name = "wam_controller" if robots == 1 else f"wam_controller_{SIDES[side]}"
     controller = add_wam_controller(builder, world.plant, robot, c.kp, c.ki, c.kd, name=name,
@@ -281,9 +287,14 @@ def _add_controller(builder, scenario, world: World, robot, side: int, robots: i
         controller.get_input_port_desired_acceleration())
     station.outputs[arm_port(side, "torque")] = controller.GetOutputPort("actuation")
     station.controllers.append(controller)
+    torque = controller.GetOutputPort("actuation")
+    if c.drive_voltage:
+        torque = add_drive_limits(builder, world.plant, robot, torque, c.drive_voltage,
+                                  name="arm_drives" if robots == 1 else f"arm_drives_{SIDES[side]}")
     if robots == 1:
         noise = add_joint_faults(builder, world.plant, robot, controller, c.joint_coulomb,
-                                 c.joint_viscous, c.coulomb_velocity, c.torque_noise)
+                                 c.joint_viscous, c.coulomb_velocity, c.torque_noise,
+                                 torque=torque)
         if noise is not None:
             station.seeded.append(noise)
 

@@ -55,6 +55,7 @@ from pydrake.common.value import AbstractValue
 from tt_drake import wam_params as wp
 from tt_drake.ball_model import BallModel, BallModelParams, CompliantBounceBallModel
 from tt_drake.constants import BALL, PLANES, TABLE, TARGET
+from tt_drake.drives import EffortBudget, drive_envelope
 from tt_drake.hitting_time import (
     BounceCount,
     HittingBand,
@@ -139,6 +140,9 @@ class PlannerConfig:
     max_branch_change: float = 0.5  # rad: a re-plan moving theta_hit further is another IK branch
     research_distance: float = 0.05  # m: a hitting point this far from the last re-aims fully
     torque_fraction: float = 0.9  # of the effort limits a plan may ask for
+    # The drives' supply voltage (V, tt_drake.drives): a plan must also stay within
+    # ``torque_fraction`` of the supply at every joint speed; 0: ideal drives.
+    drive_voltage: float = 0.0
     times: StageTimes = StageTimes()
     # Where a ball off the plane may be hit (tt_drake.hitting_time); None: the plane only.
     band: HittingBand | None = HittingBand()
@@ -231,7 +235,8 @@ class StrokePlanner:
         self.model = model or planner_ball_model()
         self.q_await = np.asarray(wp.AWAITING, dtype=float)
         self.acceleration_limit = np.asarray(wp.ACCELERATION_LIMIT, dtype=float)
-        self.effort_limit = np.asarray(wp.EFFORT_LIMIT, dtype=float)
+        self.effort_budget = EffortBudget(self.config.torque_fraction,
+                                          drive_envelope(self.config.drive_voltage))
         self.limits = JointLimits(np.asarray(wp.JOINT_LOWER, dtype=float),
                                   np.asarray(wp.JOINT_UPPER, dtype=float),
                                   np.asarray(wp.VELOCITY_LIMIT, dtype=float),
@@ -427,9 +432,10 @@ class StrokePlanner:
 
     def feasible(self, plan: StagePlan, now: float = -np.inf) -> bool:
         """Within the joint position, velocity and acceleration limits everywhere (sampled at
-        200 Hz), and within ``torque_fraction`` of the effort limits from ``now`` on (inverse
-        dynamics on the control plant at 50 Hz, M q_ddot + C q_dot - tau_g): the controller can
-        then follow it, with the rest of the torque left for tracking errors."""
+        200 Hz), and within ``torque_fraction`` of the effort limits (and with ``drive_voltage``
+        of the drives' supply at each sample's joint speed) from ``now`` on (inverse dynamics on
+        the control plant at 50 Hz, M q_ddot + C q_dot - tau_g): the controller can then follow
+        it, with the rest of the torque left for tracking errors."""
         ext = plan_extremes(plan, rate=200.0)
         if not (np.all(ext["qdd_max"] <= self.acceleration_limit)
                 and np.all(ext["qd_max"] <= self.limits.velocity)
@@ -438,8 +444,7 @@ class StrokePlanner:
             return False
         if not hasattr(self.arm, "torques"):
             return True
-        return within_effort(plan, self.arm.torques,
-                             self.config.torque_fraction * self.effort_limit, now)
+        return within_effort(plan, self.arm.torques, self.effort_budget, now)
 
     def schedule(self, now: float, current: StagePlan,
                  stroke: Stroke) -> tuple[StagePlan | None, bool]:

@@ -65,6 +65,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import EventStatus
 
 from tt_drake import wam_params as wp
+from tt_drake.drives import EffortBudget, drive_envelope
 from tt_drake.learned_player import (
     MoMPStroke,
     move_hitting_goal,
@@ -124,6 +125,9 @@ class MoMPConfig:
     # above 10 rad/s; 1.5x: 199/200, peak 7.8 rad/s; 0.9x (the teacher's budget): 186/200 -
     # re-plans near the hit are refused and the stroke keeps aiming at an earlier prediction.
     torque_fraction: float = 1.5
+    # The drives' supply voltage (V, tt_drake.drives): the check then also asks for at most
+    # ``torque_fraction`` of the supply at each joint speed; 0: ideal drives.
+    drive_voltage: float = 0.0
     # The hitting DMP's moving goal (Eq. 4, section III-C): with a value, the hitting stage is
     # not committed at its start; each new prediction (the predictor's refreshed, spin-aware one
     # after the robot-side bounce) moves its goal (theta_hit, theta_dot_hit, t_hit) until this
@@ -148,14 +152,15 @@ class MoMPConfig:
     hold_speed: float = 1.5
 
 
-def momp_config(moving_goal: bool = False) -> MoMPConfig:
+def momp_config(moving_goal: bool = False, drive_voltage: float = 0.0) -> MoMPConfig:
     """The player of the paper profile, or with the hitting DMP's moving goal (the hard
     protocol's: cut-off :data:`MOVING_GOAL_CUTOFF`, effort budget
-    :data:`MOVING_GOAL_TORQUE_FRACTION`)."""
+    :data:`MOVING_GOAL_TORQUE_FRACTION`); its effort check knows drives of ``drive_voltage``
+    (0: ideal)."""
     if not moving_goal:
-        return MoMPConfig()
+        return MoMPConfig(drive_voltage=drive_voltage)
     return MoMPConfig(goal_cutoff=MOVING_GOAL_CUTOFF,
-                      torque_fraction=MOVING_GOAL_TORQUE_FRACTION)
+                      torque_fraction=MOVING_GOAL_TORQUE_FRACTION, drive_voltage=drive_voltage)
 
 
 class _State(Immutable):
@@ -202,8 +207,8 @@ class MoMPTrajectorySource(StagePlanPlayer):
         self.library, self.stages, self.arm = library, stages, arm
         self.config = config or MoMPConfig()
         self.limits = joint_limits()
-        self._effort_budget = self.config.torque_fraction * np.asarray(wp.EFFORT_LIMIT,
-                                                                       dtype=float)
+        self._effort_budget = EffortBudget(self.config.torque_fraction,
+                                           drive_envelope(self.config.drive_voltage))
         self.q_await = np.asarray(wp.AWAITING if q_await is None else q_await, dtype=float)
         self._p = self.DeclareVectorInputPort("p_hit", 3)
         self._v = self.DeclareVectorInputPort("v_hit", 3)

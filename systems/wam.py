@@ -34,12 +34,14 @@ from pydrake.systems.primitives import (
     MatrixGain,
     Multiplexer,
     RandomSource,
+    Saturation,
     SymbolicVectorSystem,
     ZeroOrderHold,
 )
 
 from tt_drake import wam_params as wp
 from tt_drake.constants import MOUNT
+from tt_drake.drives import DriveEnvelope
 
 MODEL_FILE = "wam7_racket.urdf"
 BASE_FRAME = wp.BASE_LINK  # "wam_base": the base plate
@@ -204,16 +206,56 @@ class TorqueNoise:
         self.source.SetRandomContext(context, RandomGenerator(int(seed) % 2**32))
 
 
+def _reroute_actuation(builder: DiagramBuilder, plant: MultibodyPlant,
+                       instance: ModelInstanceIndex, torque):
+    """Disconnect ``torque`` (the output port now driving ``instance``'s actuation) from the
+    plant; return the plant's actuation input port for the caller to drive."""
+    actuation = plant.get_actuation_input_port(instance)
+    builder.Disconnect(torque, actuation)
+    return actuation
+
+
+def add_drive_limits(builder: DiagramBuilder, plant: MultibodyPlant,
+                     instance: ModelInstanceIndex, torque, voltage: float,
+                     name: str = "arm_drives"):
+    """The arm's DC drives at supply ``voltage`` between the commanded ``torque`` (the output
+    port now driving the plant's actuation) and the plant: each joint gets
+    ``clamp(tau, -a - b v, a - b v)`` (:mod:`tt_drake.drives`; the plant then applies the
+    effort limits). Built from C++ primitives, so the integrator's steps call no Python: with
+    ``u = tau + b v``, ``clamp(tau, -a - b v, a - b v) = clamp(u, -a, a) - b v``
+    (MatrixGain on the arm state, Adder, Saturation). Returns the output port of the applied
+    torque."""
+    drive = DriveEnvelope(voltage)
+    emf = np.hstack([np.zeros((NUM_JOINTS, NUM_JOINTS)), np.diag(drive.back_emf)])
+    state = plant.get_state_output_port(instance)
+    actuation = _reroute_actuation(builder, plant, instance, torque)
+    plus = builder.AddNamedSystem(f"{name}_back_emf", MatrixGain(emf))
+    minus = builder.AddNamedSystem(f"{name}_back_emf_removed", MatrixGain(-emf))
+    shifted = builder.AddNamedSystem(f"{name}_voltage", Adder(2, NUM_JOINTS))
+    supply = builder.AddNamedSystem(f"{name}_supply", Saturation(-drive.stall, drive.stall))
+    applied = builder.AddNamedSystem(name, Adder(2, NUM_JOINTS))
+    builder.Connect(state, plus.get_input_port())
+    builder.Connect(state, minus.get_input_port())
+    builder.Connect(torque, shifted.get_input_port(0))
+    builder.Connect(plus.get_output_port(), shifted.get_input_port(1))
+    builder.Connect(shifted.get_output_port(), supply.get_input_port())
+    builder.Connect(supply.get_output_port(), applied.get_input_port(0))
+    builder.Connect(minus.get_output_port(), applied.get_input_port(1))
+    builder.Connect(applied.get_output_port(), actuation)
+    return applied.get_output_port()
+
+
 def add_joint_faults(builder: DiagramBuilder, plant: MultibodyPlant,
                      instance: ModelInstanceIndex, controller, coulomb=None, viscous=None,
                      velocity_scale: float = 0.05, torque_noise=None,
-                     period: float = wp.SERVO_PERIOD) -> TorqueNoise | None:
+                     period: float = wp.SERVO_PERIOD, torque=None) -> TorqueNoise | None:
     """Torques on the simulated arm that the controller does not know: joint friction
     (:func:`joint_friction_system`) and motor torque noise (Gaussian, standard deviation
     ``torque_noise[j]`` N m, drawn once per servo ``period``, ticks at k * period like the
     servo's, by a C++ ``RandomSource``). They are added to the controller's actuation before the
-    plant's actuation input, replacing the direct connection :func:`add_wam_controller` made;
-    the controller's ``actuation`` output still reports what it commands. Returns the noise's
+    plant's actuation input, replacing the direct connection :func:`add_wam_controller` made
+    (or the one from ``torque``, the output port now driving the plant: the drives'); the
+    controller's ``actuation`` output still reports what it commands. Returns the noise's
     seeding handle (None without noise). Nothing is added when every value is zero."""
     zero = [0.0] * NUM_JOINTS
     coulomb, viscous = list(coulomb or zero), list(viscous or zero)
@@ -236,9 +278,10 @@ def add_joint_faults(builder: DiagramBuilder, plant: MultibodyPlant,
         terms.append(gain.get_output_port())
         handle = TorqueNoise(source)
     adder = builder.AddNamedSystem("arm_torque", Adder(len(terms) + 1, NUM_JOINTS))
-    actuation = plant.get_actuation_input_port(instance)
-    builder.Disconnect(controller.GetOutputPort("actuation"), actuation)
-    builder.Connect(controller.GetOutputPort("actuation"), adder.get_input_port(0))
+    if torque is None:
+        torque = controller.GetOutputPort("actuation")
+    actuation = _reroute_actuation(builder, plant, instance, torque)
+    builder.Connect(torque, adder.get_input_port(0))
     for k, port in enumerate(terms):
         builder.Connect(port, adder.get_input_port(k + 1))
     builder.Connect(adder.get_output_port(), actuation)

@@ -282,13 +282,20 @@ def plan_extremes(plan: StagePlan, rate: float = 500.0) -> dict:
 def within_effort(plan: StagePlan, torques, budget, now: float = -np.inf,
                   rate: float = 50.0) -> bool:
     """Inverse dynamics ``torques(q, q_dot, q_ddot)`` along ``plan`` from ``now`` on, sampled at
-    ``rate`` Hz, within ``budget`` (per joint) everywhere: the controller can then follow it.
-    ``torques`` must be the plan's whole feed-forward torque, M q_ddot + C q_dot - tau_g
-    (:meth:`tt_drake.systems.hitting_ik.HittingIK.torques`, gravity included).
+    ``rate`` Hz, within ``budget`` everywhere: the controller can then follow it. ``torques``
+    must be the plan's whole feed-forward torque, M q_ddot + C q_dot - tau_g
+    (:meth:`tt_drake.systems.hitting_ik.HittingIK.torques`, gravity included). ``budget``: per
+    joint, ``|tau| <= budget``; or an object whose ``bounds(q_dot)`` gives the (lower, upper)
+    torques at a joint speed (:class:`tt_drake.drives.EffortBudget`, the drives' envelope).
 
     Each segment's samples are evaluated at once (:func:`evaluate_segment_many`); the inverse
     dynamics stays one call per sample and the check stops at the first sample over budget."""
-    budget = np.asarray(budget, dtype=float)
+    bounds = getattr(budget, "bounds", None)
+    if bounds is None:
+        limit = np.asarray(budget, dtype=float)
+
+        def bounds(_v):
+            return -limit, limit
     for _, seg in plan.segments:
         if seg.t_end <= now:
             continue
@@ -297,6 +304,8 @@ def within_effort(plan: StagePlan, torques, budget, now: float = -np.inf,
             continue
         q, v, a = evaluate_segment_many(seg, times)
         for i in range(times.size):
-            if np.any(np.abs(torques(q[i], v[i], a[i])) > budget):
+            tau = torques(q[i], v[i], a[i])
+            lower, upper = bounds(v[i])
+            if np.any(tau > upper) or np.any(tau < lower):
                 return False
     return True

@@ -81,6 +81,18 @@ VELOCITY_LIMIT: tuple[float, ...] = (10.0,) * NUM_JOINTS
 # most 17 % of a limit (tests/systems/test_wam.py checks < 50 %). The wrist limits (3, 4, 1 N m)
 # are what a fast stroke can saturate: the racket alone has ~0.02 kg m^2 about the wrist.
 EFFORT_LIMIT: tuple[float, ...] = (75.0, 125.0, 39.0, 30.0, 3.0, 4.0, 1.0)
+# The drives (docs/constants.md, "Drives"): Barrett's motor data per joint (torque constant
+# k_t, N m/A; winding resistance R, ohm; no-load speed at the design voltage, motor rad/s) and
+# the joint's transmission ratio N (Barrett WAM manual, arm and wrist transmission ratios; J2/J3
+# and J5/J6 are cable differentials, taken here as one motor per joint through the joint's
+# ratio). The motors' design voltage is 48 V; the WAM's supply takes 24-90 V DC.
+MOTOR_TORQUE_CONSTANT: tuple[float, ...] = (0.457, 0.457, 0.457, 0.457, 0.236, 0.236, 0.067)
+MOTOR_RESISTANCE: tuple[float, ...] = (3.473, 3.473, 3.473, 3.473, 6.213, 6.213, 5.205)
+MOTOR_NO_LOAD_SPEED: tuple[float, ...] = (100.218, 100.218, 100.218, 100.218, 192.309, 192.309,
+                                          569.022)
+TRANSMISSION_RATIO: tuple[float, ...] = (42.0, 28.25, 28.25, 18.0, 9.48, 9.48, 14.93)
+DESIGN_VOLTAGE = 48.0  # V
+SUPPLY_VOLTAGE_RANGE = (24.0, 90.0)  # V
 # The lab's joint acceleration bound (docs/constants.md), rad/s^2; for planners.
 ACCELERATION_LIMIT: tuple[float, ...] = (200.0,) * NUM_JOINTS
 

@@ -62,3 +62,35 @@ def test_the_scenarios_teacher_settings_reach_the_analytical_player():
         config = ServeDiagram(scenario, "analytical").player.planner.config
         assert config.correction_fallbacks is on
         assert (config.target_x, config.target_y) == (-0.2, scenario.referee.target_y)
+
+
+def test_the_scenarios_drives_reach_every_players_effort_check(tmp_path):
+    """``controller.drive_voltage`` (0 by default; 48 V in the shipped ``wam_drives``
+    scenario) is the voltage of the teacher's effort check, of the learned player's and of
+    its hitting configuration's planner; a bad voltage is named."""
+    from tt_drake.diagrams.episodes import ServeDiagram
+    from tt_drake.diagrams.scenario import ScenarioError
+    from tt_drake.drives import DriveEnvelope
+    from tt_drake.models import use_artefact_set
+
+    for name, drive in (("default", None), ("wam_drives", DriveEnvelope(48.0))):
+        scenario = load_scenario(name)
+        planner = ServeDiagram(scenario, "analytical").player.planner
+        assert planner.effort_budget.drive == drive
+        assert planner.effort_budget.fraction == planner.config.torque_fraction
+        use_artefact_set(scenario.learned, "hard")
+        diagram = ServeDiagram(scenario, "momp")
+        configuration = diagram.diagram.GetSubsystemByName("hitting_configuration")
+        assert configuration.planner.effort_budget.drive == drive
+        assert diagram.player.config.drive_voltage == (0.0 if drive is None else 48.0)
+    scenario = load_scenario()
+    for bad in (12.0, 120.0, -1.0):
+        scenario.controller.drive_voltage = bad
+        problems = scenario.controller.problems()
+        assert any("drive_voltage" in p and "24-90 V" in p for p in problems), problems
+    scenario.controller.drive_voltage = 48.0
+    assert scenario.controller.problems() == []
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("controller:\n  drive_voltage: 100.0\n")
+    with pytest.raises(ScenarioError, match="drive_voltage"):
+        load_scenario(str(bad))

@@ -13,6 +13,7 @@ from tt_drake.constants import BALL, TABLE
 from tt_drake.diagrams.rally import rally_scenario
 from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.diagrams.station import awaiting_posture, build_station, make_station
+from tt_drake.drives import DriveEnvelope
 from tt_drake.rally_rules import mirror_matrix13
 from tt_drake.systems.world import set_ball_state
 from tt_drake.wam_params import AWAITING
@@ -103,3 +104,41 @@ def test_the_station_is_the_only_builder_of_the_world():
                     and node.func.id == "add_world"):
                 callers.append(path.relative_to(root).as_posix())
     assert callers == ["diagrams/station.py"]
+
+
+def test_the_drives_limit_both_arms_and_sit_before_the_joint_faults():
+    """With ``controller.drive_voltage`` each robot's commanded torque reaches its plant
+    through the drives: a base joint already turning faster than its no-load speed gets no
+    driving torque whatever the controller asks (it can only brake), and the serve's robot's
+    joint friction is added after the drives."""
+    drive = DriveEnvelope(48.0)
+    for robots in (1, 2):
+        scenario = load_scenario()
+        if robots == 2:
+            scenario = rally_scenario(scenario)
+        scenario.controller.drive_voltage = 48.0
+        scenario.controller.joint_viscous = [2.0] * 7
+        station = build_station(scenario, robots=robots, end_when_decided=False)
+        diagram, world = station.diagram, station.world
+        context = diagram.CreateDefaultContext()
+        awaiting_posture(world, context)
+        plant_context = world.plant.GetMyContextFromRoot(context)
+        instances = [world.robot] + ([world.robot_b] if robots == 2 else [])
+        for side, instance in zip("AB"[:robots], instances, strict=True):
+            v = np.zeros(7)
+            v[0] = 1.2 * drive.no_load_speed[0]
+            world.plant.SetVelocities(world.plant.GetMyMutableContextFromRoot(context),
+                                      instance, v)
+            desired = np.r_[AWAITING, 3.0 * v]  # asks for more speed: a driving torque
+            diagram.GetInputPort(f"wam_{side}_desired_state").FixValue(context, desired)
+            diagram.GetInputPort(f"wam_{side}_desired_acceleration").FixValue(context,
+                                                                              np.zeros(7))
+        for side, instance in zip("AB"[:robots], instances, strict=True):
+            commanded = diagram.GetOutputPort(f"wam_{side}_torque").Eval(context)
+            applied = world.plant.get_actuation_input_port(instance).Eval(plant_context)
+            friction = -2.0 * 1.2 * drive.no_load_speed[0] if robots == 1 else 0.0
+            assert commanded[0] > 0.0
+            lower, upper = drive.bounds(world.plant.GetVelocities(plant_context, instance))
+            assert upper[0] < 0.0
+            assert applied[0] == pytest.approx(np.clip(commanded[0], lower[0], upper[0])
+                                               + friction, abs=1e-9)

@@ -21,6 +21,7 @@ from pydrake.systems.primitives import ConstantVectorSource
 
 from tt_drake import wam_params
 from tt_drake.constants import CONTACT, MOUNT, TABLE
+from tt_drake.drives import DriveEnvelope
 from tt_drake.modelgen import wam as wam_gen
 from tt_drake.systems import wam
 
@@ -371,3 +372,65 @@ def test_urdf_file_is_up_to_date():
     assert committed == wam_gen.wam_urdf(), (
         "models/wam7_racket.urdf differs from tt_drake.modelgen.wam.wam_urdf(); regenerate it "
         "with `python -m tt_drake.modelgen.wam` and commit the result")
+
+
+def _driven_arm(torque, voltage):
+    """The WAM without gravity, a constant torque command through drives of ``voltage`` V
+    (None: straight to the plant), simulated with the project's recipe."""
+    builder = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlant(MultibodyPlantConfig(time_step=0.0), builder)
+    instance = wam.add_wam(plant, scene_graph=scene_graph)
+    plant.mutable_gravity_field().set_gravity_vector(np.zeros(3))
+    plant.Finalize()
+    command = builder.AddSystem(ConstantVectorSource(np.asarray(torque, dtype=float)))
+    builder.Connect(command.get_output_port(), plant.get_actuation_input_port(instance))
+    if voltage is not None:
+        wam.add_drive_limits(builder, plant, instance, command.get_output_port(), voltage)
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    ApplySimulatorConfig(SimulatorConfig(integration_scheme="runge_kutta3", accuracy=1e-4,
+                                         max_step_size=2e-3), simulator)
+    context = plant.GetMyMutableContextFromRoot(simulator.get_mutable_context())
+    plant.SetPositions(context, instance, wam_params.AWAITING)
+    return diagram, simulator, plant, instance, context
+
+
+def test_drive_chain_applies_the_envelope():
+    """The C++ chain (gain, adder, saturation) gives clamp(tau, -a - b v, a - b v) at random
+    arm states and commands (the plant then applies the effort limit)."""
+    drive = DriveEnvelope(48.0)
+    rng = np.random.default_rng(2)
+    for _ in range(20):
+        tau = rng.uniform(-300.0, 300.0, 7)
+        diagram, simulator, plant, instance, context = _driven_arm(tau, 48.0)
+        v = rng.uniform(-1.5, 1.5, 7) * drive.no_load_speed
+        plant.SetVelocities(context, instance, v)
+        drives = diagram.GetSubsystemByName("arm_drives")
+        applied = drives.get_output_port().Eval(
+            drives.GetMyContextFromRoot(simulator.get_context()))
+        emf = drive.back_emf * v
+        np.testing.assert_allclose(applied, np.clip(tau, -drive.stall - emf, drive.stall - emf),
+                                   rtol=1e-12, atol=1e-9)
+
+
+def test_a_driven_joint_runs_up_to_its_no_load_speed():
+    """The base joint commanded with its full 75 N m from rest: with the 48 V drives it runs up
+    to its no-load speed (2.39 rad/s; the drive's torque falls linearly with speed to zero
+    there) and no faster; with ideal actuators it keeps accelerating."""
+    drive = DriveEnvelope(48.0)
+    torque = np.zeros(7)
+    torque[0] = FACTS_EFFORT[0]
+    speeds = {}
+    for voltage in (48.0, None):
+        _, simulator, plant, instance, context = _driven_arm(torque, voltage)
+        simulator.Initialize()
+        peak = 0.0
+        for t in np.arange(0.05, 1.0001, 0.05):
+            simulator.AdvanceTo(t)
+            peak = max(peak, abs(plant.GetVelocities(context, instance)[0]))
+        speeds[voltage] = (plant.GetVelocities(context, instance)[0], peak)
+    final, peak = speeds[48.0]
+    print("J1 speed after 1 s (rad/s): drives", final, "peak", peak, "ideal", speeds[None][0])
+    assert final == pytest.approx(drive.no_load_speed[0], rel=0.02)
+    assert peak <= drive.no_load_speed[0] * 1.02
+    assert speeds[None][0] > 3.0 * drive.no_load_speed[0]

@@ -186,3 +186,34 @@ def test_effort_check_is_the_sampled_bound_and_stops_at_the_first_excess():
     assert not within_effort(plan, torques, np.full(7, 0.999 * peak))
     first = next(i for i, m in enumerate(sampled) if m > 0.999 * peak)
     assert len(calls) == first + 1
+
+
+def test_effort_check_with_the_drives_bounds_each_sample_at_its_speed():
+    """With a budget that has ``bounds(q_dot)`` (the drives'), each sample's torque is held to
+    the bounds at that sample's joint speed: a plan accepted by a constant budget equal to the
+    stall-side bound is refused when the bound falls with speed, exactly when some sample's
+    torque exceeds a - b |q_dot| in its direction."""
+    from tt_drake.stages import StagePlan, within_effort
+
+    seg = _segments()[0]
+    plan = StagePlan([(HITTING, seg)])
+
+    def law(q, qd, qdd):
+        return 3.0 * qdd + qd
+
+    class Falling:
+        def __init__(self, stall, slope):
+            self.stall, self.slope = stall, slope
+
+        def bounds(self, qd):
+            return -self.stall - self.slope * qd, self.stall - self.slope * qd
+
+    times = np.arange(seg.t0, seg.t_end + 1e-9, 1.0 / 50.0)
+    samples = [seg.evaluate(t) for t in times]
+    stall = max(np.abs(law(*s)).max() for s in samples)
+    assert within_effort(plan, law, Falling(stall, 0.0))
+    # The smallest stall torque that keeps every sample inside the falling bounds.
+    slope = 0.5
+    needed = max(np.max(np.abs(law(*s) + slope * s[1])) for s in samples)
+    assert within_effort(plan, law, Falling(needed * (1 + 1e-9), slope))
+    assert not within_effort(plan, law, Falling(needed * (1 - 1e-6), slope))
