@@ -141,8 +141,10 @@ class PlannerConfig:
     research_distance: float = 0.05  # m: a hitting point this far from the last re-aims fully
     torque_fraction: float = 0.9  # of the effort limits a plan may ask for
     # The drives' supply voltage (V, tt_drake.drives): a plan must also stay within
-    # ``torque_fraction`` of the supply at every joint speed; 0: ideal drives.
+    # ``supply_fraction`` of the supply at every joint speed, and each joint within that
+    # share of its no-load speed; 0: ideal drives.
     drive_voltage: float = 0.0
+    supply_fraction: float = 1.5
     times: StageTimes = StageTimes()
     # Where a ball off the plane may be hit (tt_drake.hitting_time); None: the plane only.
     band: HittingBand | None = HittingBand()
@@ -228,18 +230,22 @@ class StrokePlanner:
 
     def __init__(self, arm=None, config: PlannerConfig | None = None,
                  model: BallModel | None = None):
+        self.config = config or PlannerConfig()
+        self.drive = drive_envelope(self.config.drive_voltage)
         if arm is None:
             arm = HittingIK()
         self.arm = arm
-        self.config = config or PlannerConfig()
         self.model = model or planner_ball_model()
         self.q_await = np.asarray(wp.AWAITING, dtype=float)
         self.acceleration_limit = np.asarray(wp.ACCELERATION_LIMIT, dtype=float)
-        self.effort_budget = EffortBudget(self.config.torque_fraction,
-                                          drive_envelope(self.config.drive_voltage))
+        self.effort_budget = EffortBudget(self.config.torque_fraction, self.drive,
+                                          self.config.supply_fraction)
+        velocity = np.asarray(wp.VELOCITY_LIMIT, dtype=float)
+        if self.drive is not None:
+            velocity = np.minimum(velocity,
+                                  self.config.supply_fraction * self.drive.no_load_speed)
         self.limits = JointLimits(np.asarray(wp.JOINT_LOWER, dtype=float),
-                                  np.asarray(wp.JOINT_UPPER, dtype=float),
-                                  np.asarray(wp.VELOCITY_LIMIT, dtype=float),
+                                  np.asarray(wp.JOINT_UPPER, dtype=float), velocity,
                                   self.acceleration_limit)
 
     def aimed(self, aim: Aim) -> StrokePlanner:
@@ -377,9 +383,16 @@ class StrokePlanner:
                                                      offset), racket.normal, q_seed=seed)
                     if not ik.success:
                         continue
-                    qd_hit = self.arm.joint_velocities_free_spin(ik.q, racket.velocity)
+                    qd_hit = self.hit_velocities(ik.q, racket.velocity)
                     if np.all(np.abs(qd_hit) <= self.limits.velocity):
                         yield share, offset, v_out, spin_out, flight_time, racket, ik, qd_hit
+
+    def hit_velocities(self, q_hit, v_racket) -> np.ndarray:
+        """theta_dot_hit for the blade velocity ``v_racket`` at ``q_hit``, the racket free to
+        rotate (:meth:`HittingIK.joint_velocities_free_spin`); with drives, in units of each
+        joint's no-load speed, so that the slow base joint gives way to the wrist."""
+        scale = None if self.drive is None else self.drive.no_load_speed
+        return self.arm.joint_velocities_free_spin(q_hit, v_racket, speed_scale=scale)
 
     def _strokes(self, p_hit, v_hit, spin, previous: Stroke | None) -> list:
         """(v_out, spin_out, flight time, racket) to try, best first, for a ball spinning at

@@ -39,6 +39,7 @@ from tt_drake.stages import (
     Quintic,
     follow_through_time,
     plan_stroke,
+    return_duration,
 )
 from tt_drake.systems.analytical_player import (
     AnalyticalPlayer,
@@ -95,8 +96,8 @@ class StrokeOffsetPlayer(AnalyticalPlayer):
         t_follow = follow_through_time(q_hit, qd_hit, limits, times)
         q_end = limits.clip(q_hit + 0.5 * t_follow * qd_hit)
         follow = Quintic.fit(stroke.t_hit, t_follow, q_hit, qd_hit, zero, q_end, zero, zero)
-        back = Quintic.fit(follow.t_end, times.return_to_awaiting, q_end, zero, zero,
-                           planner.q_await, zero, zero)
+        back = Quintic.fit(follow.t_end, return_duration(q_end, planner.q_await, limits, times),
+                           q_end, zero, zero, planner.q_await, zero, zero)
         plan = type(old.plan)(old.plan.segments[:index] + [
             (HITTING, hit), (FOLLOW_THROUGH, follow), (AWAITING, back)])
         new_stroke = dataclasses.replace(stroke, q_hit=q_hit, qd_hit=qd_hit)

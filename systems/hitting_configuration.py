@@ -143,7 +143,7 @@ class HittingConfiguration(SeedParameter, LeafSystem):
         # tangential term (the normal does not depend on the spin).
         velocity = racket_for_return(v_hit, stroke.v_out).velocity
         return (stroke.q_hit, stroke.qd_hit,
-                self.planner.arm.joint_velocities_free_spin(stroke.q_hit, velocity))
+                self.planner.hit_velocities(stroke.q_hit, velocity))
 
     def _answer(self, context) -> np.ndarray:
         """``[theta_hit (7), theta_dot_hit (7), valid, theta_dot_hit_spinless (7)]`` for the

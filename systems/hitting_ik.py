@@ -330,8 +330,8 @@ class HittingIK:
             qdot = qdot + null * (null @ (null_gain * (self.comfort - q)))
         return qdot
 
-    def joint_velocities_free_spin(self, q, v_racket,
-                                   null_gain: float = DEFAULT_NULL_GAIN) -> np.ndarray:
+    def joint_velocities_free_spin(self, q, v_racket, null_gain: float = DEFAULT_NULL_GAIN,
+                                   speed_scale=None) -> np.ndarray:
         """q̇ = J_v⁺ v + (I - J_v⁺ J_v) k (q_c - q): the blade centre's linear velocity only
         (J_v, the 3 x 7 translational rows), the racket free to rotate.
 
@@ -341,11 +341,19 @@ class HittingIK:
         ω = 0, the arm reaches the same blade velocity with much smaller joint speeds (the wrist
         need not counter-rotate; measured: 2.5 instead of 10-17 rad/s for forehand strokes):
         the minimum-norm solution plus null-space motion toward comfort.
+
+        ``speed_scale`` (rad/s per joint, e.g. the drives' no-load speeds): the least-squares
+        norm is taken in units of each joint's scale, sum (q̇_j / s_j)², so that slow joints
+        (the base) give way to fast ones (the wrist): with S = diag(s) and q̇ = S y,
+        y = (J_v S)⁺ v + (I - (J_v S)⁺ J_v S) S⁻¹ k (q_c - q). None: s_j = 1.
         """
         q = np.asarray(q, dtype=float).reshape(NUM_JOINTS)
-        jv = self.jacobian(q)[3:]
+        scale = (np.ones(NUM_JOINTS) if speed_scale is None
+                 else np.asarray(speed_scale, dtype=float).reshape(NUM_JOINTS))
+        jv = self.jacobian(q)[3:] * scale
         pinv = np.linalg.pinv(jv, rcond=1e-6)
-        qdot = pinv @ np.asarray(v_racket, dtype=float).reshape(3)
+        y = pinv @ np.asarray(v_racket, dtype=float).reshape(3)
         if null_gain != 0.0:
-            qdot = qdot + (np.eye(NUM_JOINTS) - pinv @ jv) @ (null_gain * (self.comfort - q))
+            y = y + (np.eye(NUM_JOINTS) - pinv @ jv) @ (null_gain * (self.comfort - q) / scale)
+        qdot = scale * y
         return qdot

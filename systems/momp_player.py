@@ -65,7 +65,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import EventStatus
 
 from tt_drake import wam_params as wp
-from tt_drake.drives import EffortBudget, drive_envelope
+from tt_drake.drives import DriveEnvelope, EffortBudget, drive_envelope
 from tt_drake.learned_player import (
     MoMPStroke,
     move_hitting_goal,
@@ -179,10 +179,14 @@ class _State(Immutable):
         self.refused, self.spinless_move = refused, spinless_move
 
 
-def joint_limits() -> JointLimits:
+def joint_limits(drive: DriveEnvelope | None = None) -> JointLimits:
+    """The arm's joint limits for the learned player's plans; with ``drive``, no joint faster
+    than its drive's no-load speed."""
+    velocity = np.asarray(wp.VELOCITY_LIMIT, dtype=float)
+    if drive is not None:
+        velocity = np.minimum(velocity, drive.no_load_speed)
     return JointLimits(np.asarray(wp.JOINT_LOWER, dtype=float),
-                       np.asarray(wp.JOINT_UPPER, dtype=float),
-                       np.asarray(wp.VELOCITY_LIMIT, dtype=float),
+                       np.asarray(wp.JOINT_UPPER, dtype=float), velocity,
                        np.asarray(wp.ACCELERATION_LIMIT, dtype=float))
 
 
@@ -206,9 +210,9 @@ class MoMPTrajectorySource(StagePlanPlayer):
                              f"stimuli have {library.stimuli.shape[1]} values")
         self.library, self.stages, self.arm = library, stages, arm
         self.config = config or MoMPConfig()
-        self.limits = joint_limits()
-        self._effort_budget = EffortBudget(self.config.torque_fraction,
-                                           drive_envelope(self.config.drive_voltage))
+        drive = drive_envelope(self.config.drive_voltage)
+        self.limits = joint_limits(drive)
+        self._effort_budget = EffortBudget(self.config.torque_fraction, drive)
         self.q_await = np.asarray(wp.AWAITING if q_await is None else q_await, dtype=float)
         self._p = self.DeclareVectorInputPort("p_hit", 3)
         self._v = self.DeclareVectorInputPort("v_hit", 3)

@@ -61,12 +61,15 @@ class DriveEnvelope:
         n, _, k_e, _ = _motor_arrays()
         return self.voltage / (k_e * n)
 
-    def bounds(self, qdot, fraction: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    def bounds(self, qdot, fraction: float = 1.0,
+               supply_fraction: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(lower, upper) joint torques (N m) the drives give at joint speeds ``qdot`` within
-        ``fraction`` of the supply and of the effort limits: :func:`torque_bounds` with
-        ``a -> fraction a`` and ``E -> fraction E`` (a plan that asks for at most ``fraction``
-        of both leaves the rest for tracking)."""
-        return torque_bounds(qdot, fraction * self.stall, self.back_emf,
+        ``fraction`` of the effort limits and ``supply_fraction`` (default ``fraction``) of
+        the supply: :func:`torque_bounds` with ``E -> fraction E`` and ``a -> supply_fraction
+        a`` (a plan that asks for at most ``fraction`` of both leaves the rest for tracking)."""
+        if supply_fraction is None:
+            supply_fraction = fraction
+        return torque_bounds(qdot, supply_fraction * self.stall, self.back_emf,
                              fraction * np.asarray(wp.EFFORT_LIMIT, dtype=float))
 
 
@@ -94,15 +97,17 @@ def torque_bounds(qdot, stall, back_emf, effort) -> tuple[np.ndarray, np.ndarray
 @dataclass(frozen=True)
 class EffortBudget:
     """What a plan may ask of the actuators: ``fraction`` of the effort limits, and with
-    ``drive`` also of its supply (:meth:`DriveEnvelope.bounds`). ``bounds(q_dot)`` is what
+    ``drive`` ``supply_fraction`` (default ``fraction``) of its supply
+    (:meth:`DriveEnvelope.bounds`). ``bounds(q_dot)`` is what
     :func:`tt_drake.stages.within_effort` checks each sample against."""
 
     fraction: float
     drive: DriveEnvelope | None = None
+    supply_fraction: float | None = None
 
     def bounds(self, qdot) -> tuple[np.ndarray, np.ndarray]:
         if self.drive is not None:
-            return self.drive.bounds(qdot, self.fraction)
+            return self.drive.bounds(qdot, self.fraction, self.supply_fraction)
         limit = self.fraction * np.asarray(wp.EFFORT_LIMIT, dtype=float)
         return -limit, limit
 

@@ -53,6 +53,7 @@ from tt_drake.stages import (
     continue_past_end,
     follow_through_time,
     quintic_coefficients,
+    return_duration,
 )
 from tt_drake.stimulus import PAPER_STIMULUS, stimulus_layout, stimulus_size
 
@@ -288,7 +289,7 @@ def _finish_stroke(segments: list, t_hit: float, dmp: HittingDMP, stages: dict, 
     segments.append((FOLLOW_THROUGH, SampledSegment.from_trajectory(t_hit, follow)))
     end = segments[-1][1].end_state()
     back = stages[AWAITING].rollout(dmp, end, np.asarray(q_await, dtype=float), zero,
-                                    times.return_to_awaiting, rate)
+                                    return_duration(end[0], q_await, limits, times), rate)
     segments.append((AWAITING, SampledSegment.from_trajectory(segments[-1][1].t_end, back)))
 
 

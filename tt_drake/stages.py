@@ -248,10 +248,17 @@ def plan_stroke(now: float, state: tuple, t_hit: float, q_hit, qd_hit, q_await,
     q_end = limits.clip(q_hit + 0.5 * t_follow * qd_hit)
     follow = Quintic.fit(t_hit, t_follow, q_hit, qd_hit, zero, q_end, zero, zero)
     segments.append((FOLLOW_THROUGH, follow))
-    back = Quintic.fit(follow.t_end, times.return_to_awaiting, q_end, zero, zero,
-                       np.asarray(q_await, dtype=float), zero, zero)
+    back = Quintic.fit(follow.t_end, return_duration(q_end, q_await, limits, times), q_end,
+                       zero, zero, np.asarray(q_await, dtype=float), zero, zero)
     segments.append((AWAITING, back))
     return StagePlan(segments)
+
+
+def return_duration(q_end, q_await, limits: JointLimits, times: StageTimes) -> float:
+    """The awaiting stage's duration: ``times.return_to_awaiting``, or longer if the rest-to-rest
+    move from ``q_end`` to ``q_await`` needs it (:meth:`JointLimits.move_time`); nothing waits
+    for the return, so it takes the time the joint limits ask for."""
+    return max(times.return_to_awaiting, limits.move_time(q_end, q_await))
 
 
 def follow_through_time(q_hit, qd_hit, limits: JointLimits, times: StageTimes) -> float:

@@ -1,7 +1,8 @@
 """Each joint's peak speed in the teacher's serve episodes, beside the stock WAM motors' no-load
-speeds at the joints (docs/constants.md, "Joint speeds").
+speeds at the joints (docs/constants.md, "Drives").
 
     python docs/examples/joint_speeds.py [--distribution default] [--seed 6002] [--serves 60]
+                                         [--scenario wam_drives]
 
 Runs the analytical player on ``--serves`` serves (base seed ``--seed``) and prints, per joint,
 the median, 90th percentile and largest peak |q_dot| over the episodes (the arm logger's
@@ -15,16 +16,13 @@ import numpy as np
 
 from tt_drake.diagrams.episodes import ServeDiagram
 from tt_drake.diagrams.scenario import load_scenario
+from tt_drake.drives import DriveEnvelope
 from tt_drake.seeds import episode_seed
+from tt_drake.wam_params import DESIGN_VOLTAGE
 
-# Joint-side no-load speed (rad/s) of the stock WAM drives at their 48 V design voltage: the
-# motors' no-load speeds (100.218 rad/s for J1-J4, 192.309 for J5-J6, 569.022 for J7) over the
-# drive ratios (42, 28.25, 28.25, 18, 9.48, 9.48, 14.93): Barrett's motor and drive
-# specifications as tabulated on the Waterloo Steel robot's hardware specification page
-# (GitHub UW-Advanced-Robotics-Lab/lab-wiki). J2 and J3 share a differential, so theirs is
-# approximate.
-NO_LOAD_SPEED = np.array([100.218 / 42.0, 100.218 / 28.25, 100.218 / 28.25, 100.218 / 18.0,
-                          192.309 / 9.48, 192.309 / 9.48, 569.022 / 14.93])
+# Joint-side no-load speed (rad/s) of the stock WAM drives at their 48 V design voltage:
+# Barrett's listed motor no-load speeds over the transmission ratios (tt_drake.drives).
+NO_LOAD_SPEED = DriveEnvelope(DESIGN_VOLTAGE).no_load_speed
 
 
 def main() -> None:
@@ -32,8 +30,9 @@ def main() -> None:
     parser.add_argument("--distribution", default="default")
     parser.add_argument("--seed", type=int, default=6002)
     parser.add_argument("--serves", type=int, default=60)
+    parser.add_argument("--scenario", default="default")
     args = parser.parse_args()
-    scenario = load_scenario()
+    scenario = load_scenario(args.scenario)
     scenario.launcher.distribution = args.distribution
     diagram = ServeDiagram(scenario, "analytical")
     peaks = []

@@ -1,6 +1,7 @@
 """The players' registry: the built-in players by name, references resolved at first use, the
 artefact check before any simulation, and names refused."""
 
+import numpy as np
 import pytest
 
 from tt_drake.diagrams import episodes
@@ -78,11 +79,18 @@ def test_the_scenarios_drives_reach_every_players_effort_check(tmp_path):
         planner = ServeDiagram(scenario, "analytical").player.planner
         assert planner.effort_budget.drive == drive
         assert planner.effort_budget.fraction == planner.config.torque_fraction
+        assert planner.effort_budget.supply_fraction == planner.config.supply_fraction
+        # Plans keep each joint within the supply's share of its no-load speed (and 10 rad/s).
+        speed = np.full(7, 10.0) if drive is None else np.minimum(
+            10.0, planner.config.supply_fraction * drive.no_load_speed)
+        np.testing.assert_array_equal(planner.limits.velocity, speed)
         use_artefact_set(scenario.learned, "hard")
         diagram = ServeDiagram(scenario, "momp")
         configuration = diagram.diagram.GetSubsystemByName("hitting_configuration")
         assert configuration.planner.effort_budget.drive == drive
         assert diagram.player.config.drive_voltage == (0.0 if drive is None else 48.0)
+        np.testing.assert_array_equal(diagram.player.limits.velocity, np.full(7, 10.0) if drive
+                                      is None else np.minimum(10.0, drive.no_load_speed))
     scenario = load_scenario()
     for bad in (12.0, 120.0, -1.0):
         scenario.controller.drive_voltage = bad

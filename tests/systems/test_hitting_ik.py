@@ -310,3 +310,34 @@ def test_effort_check_counts_the_holding_torque(ik):
     shoulder_short = holding + 1e-9
     shoulder_short[1] = 0.99 * holding[1]
     assert not within_effort(plan, ik.torques, shoulder_short)
+
+
+def test_speed_scaled_velocities_move_slow_joints_less():
+    """With speed scales s (the drives' no-load speeds) the free-spin solution still gives the
+    blade velocity, is the least sum (q̇_j / s_j)² among all that do (so never above the
+    unscaled solution in that norm), asks less of the slow base joint, and with unit scales is
+    the unscaled solution bit for bit."""
+    from tt_drake.drives import DriveEnvelope
+    from tt_drake.systems.hitting_ik import HITTING_COMFORT, HittingIK
+
+    ik = HittingIK()
+    scale = DriveEnvelope(48.0).no_load_speed
+    rng = np.random.default_rng(5)
+    base_plain, base_scaled = [], []
+    for _ in range(10):
+        q = np.asarray(HITTING_COMFORT) + rng.uniform(-0.2, 0.2, 7)
+        v = rng.uniform(-1.0, 1.0, 3) + np.array([0.0, 2.5, 0.5])
+        plain = ik.joint_velocities_free_spin(q, v, null_gain=0.0)
+        scaled = ik.joint_velocities_free_spin(q, v, null_gain=0.0, speed_scale=scale)
+        np.testing.assert_allclose(ik.racket_velocity(q, scaled)[3:], v, atol=1e-9)
+        assert np.sum((scaled / scale) ** 2) <= np.sum((plain / scale) ** 2) + 1e-12
+        # Any other solution (plain plus a null-space step) is no better in the scaled norm.
+        null = np.eye(7) - np.linalg.pinv(ik.jacobian(q)[3:]) @ ik.jacobian(q)[3:]
+        other = scaled + null @ rng.normal(size=7)
+        assert np.sum((other / scale) ** 2) >= np.sum((scaled / scale) ** 2) - 1e-12
+        base_plain.append(abs(plain[0]))
+        base_scaled.append(abs(scaled[0]))
+        np.testing.assert_array_equal(
+            ik.joint_velocities_free_spin(q, v, speed_scale=np.ones(7)),
+            ik.joint_velocities_free_spin(q, v))
+    assert np.mean(base_scaled) < np.mean(base_plain)

@@ -109,6 +109,12 @@ def test_effort_budget_with_and_without_drives():
     assert free.any()
     np.testing.assert_allclose(_voltage(upper, qdot)[free], 0.9 * 48.0, rtol=1e-12)
     np.testing.assert_array_less(upper, drive.bounds(qdot)[1] + 1e-12)
+    # The supply's share apart from the current's: 1.5 of the supply, 0.9 of the current.
+    lax = EffortBudget(0.9, drive, supply_fraction=1.5)
+    lower, upper = lax.bounds(qdot)
+    free = upper < 0.9 * EFFORT - 1e-9
+    np.testing.assert_allclose(_voltage(upper, qdot)[free], 1.5 * 48.0, rtol=1e-12)
+    assert np.all(np.abs(upper) <= 0.9 * EFFORT + 1e-12)
 
 
 def test_torque_bounds_is_elementwise():

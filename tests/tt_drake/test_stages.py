@@ -217,3 +217,27 @@ def test_effort_check_with_the_drives_bounds_each_sample_at_its_speed():
     needed = max(np.max(np.abs(law(*s) + slope * s[1])) for s in samples)
     assert within_effort(plan, law, Falling(needed * (1 + 1e-9), slope))
     assert not within_effort(plan, law, Falling(needed * (1 - 1e-6), slope))
+
+
+def test_the_return_to_awaiting_takes_the_time_the_joint_limits_ask_for():
+    """The awaiting stage lasts ``return_to_awaiting`` unless the rest-to-rest move needs
+    longer at the joints' speed limits; the planned return then peaks within them."""
+    from tt_drake.stages import StageTimes, plan_extremes, plan_stroke, return_duration
+
+    times = StageTimes()
+    q_await = np.zeros(7)
+    fast = JointLimits(np.full(7, -3.0), np.full(7, 3.0), np.full(7, 10.0), np.full(7, 200.0))
+    slow = JointLimits(fast.lower, fast.upper, np.full(7, 1.0), fast.acceleration)
+    q_end = np.full(7, 0.6)
+    assert return_duration(q_end, q_await, fast, times) == times.return_to_awaiting
+    assert return_duration(q_end, q_await, slow, times) == pytest.approx(1.25 * 1.875 * 0.6)
+    state = (np.zeros(7), np.zeros(7), np.zeros(7))
+    q_hit, qd_hit = np.full(7, 0.5), np.full(7, 0.5)
+    for limits in (fast, slow):
+        plan = plan_stroke(0.0, state, 1.5, q_hit, qd_hit, q_await, limits, times)
+        stage, back = plan.segments[-1]
+        assert stage == "awaiting"
+        q_end = back.evaluate(back.t0)[0]
+        assert back.duration == pytest.approx(return_duration(q_end, q_await, limits, times))
+        peak = plan_extremes(type(plan)([plan.segments[-1]]))["qd_max"].max()
+        assert peak <= limits.velocity.max() / 1.25 + 1e-9
