@@ -41,6 +41,7 @@ from tt_drake.diagrams.station import (
     reset_episode,
     station_ports,
 )
+from tt_drake.drives import drive_envelope
 from tt_drake.errors import BadInputError
 from tt_drake.estimation import EstimatorConfig
 from tt_drake.hitting_point import HittingPointGPR, PhysicalPredictor, PredictorFileError
@@ -485,7 +486,8 @@ class ServeDiagram:
         if self.controller is not None:
             x = self.arm_logger.FindLog(self.context).data().T
             tau = self.torque_logger.FindLog(self.context).data().T
-            arm = arm_metrics(x[:, :7], x[:, 7:], tau)
+            arm = arm_metrics(x[:, :7], x[:, 7:], tau,
+                              drive_envelope(self.scenario.controller.drive_voltage))
         crossing = (np.r_[serve.crossing.position, serve.crossing.velocity, serve.crossing.t]
                     if serve.crossing is not None else np.full(7, np.nan))
         record = None

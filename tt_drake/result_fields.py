@@ -58,8 +58,10 @@ EPISODE_FIELDS: dict = {
     "arm": {
         "joint_limit_excess": _scalar("largest excursion of a joint beyond its limit", "rad"),
         "max_joint_speed": _scalar("largest joint speed", "rad/s"),
-        "saturated_fraction": _scalar("fraction of samples with a torque at its effort limit"),
-        "saturated_samples_per_joint": _vector("samples at the effort limit, per joint",
+        "saturated_fraction": _scalar("fraction of samples with a torque at its effort limit "
+                                      "(with drives: or past their bound at the joint speed)"),
+        "saturated_samples_per_joint": _vector("samples at the effort limit (or the drives' "
+                                               "bound), per joint",
                                                _JOINTS, ["count"] * 7),
     },
     "stroke": {
