@@ -179,12 +179,13 @@ class _State(Immutable):
         self.refused, self.spinless_move = refused, spinless_move
 
 
-def joint_limits(drive: DriveEnvelope | None = None) -> JointLimits:
+def joint_limits(drive: DriveEnvelope | None = None, supply_fraction: float = 1.0) -> JointLimits:
     """The arm's joint limits for the learned player's plans; with ``drive``, no joint faster
-    than its drive's no-load speed."""
+    than ``supply_fraction`` of its drive's no-load speed (the speed at which that share of
+    the supply is all back EMF)."""
     velocity = np.asarray(wp.VELOCITY_LIMIT, dtype=float)
     if drive is not None:
-        velocity = np.minimum(velocity, drive.no_load_speed)
+        velocity = np.minimum(velocity, supply_fraction * drive.no_load_speed)
     return JointLimits(np.asarray(wp.JOINT_LOWER, dtype=float),
                        np.asarray(wp.JOINT_UPPER, dtype=float), velocity,
                        np.asarray(wp.ACCELERATION_LIMIT, dtype=float))
@@ -211,7 +212,7 @@ class MoMPTrajectorySource(StagePlanPlayer):
         self.library, self.stages, self.arm = library, stages, arm
         self.config = config or MoMPConfig()
         drive = drive_envelope(self.config.drive_voltage)
-        self.limits = joint_limits(drive)
+        self.limits = joint_limits(drive, self.config.torque_fraction)
         self._effort_budget = EffortBudget(self.config.torque_fraction, drive)
         self.q_await = np.asarray(wp.AWAITING if q_await is None else q_await, dtype=float)
         self._p = self.DeclareVectorInputPort("p_hit", 3)

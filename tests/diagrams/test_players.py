@@ -89,8 +89,10 @@ def test_the_scenarios_drives_reach_every_players_effort_check(tmp_path):
         configuration = diagram.diagram.GetSubsystemByName("hitting_configuration")
         assert configuration.planner.effort_budget.drive == drive
         assert diagram.player.config.drive_voltage == (0.0 if drive is None else 48.0)
+        fraction = diagram.player.config.torque_fraction
         np.testing.assert_array_equal(diagram.player.limits.velocity, np.full(7, 10.0) if drive
-                                      is None else np.minimum(10.0, drive.no_load_speed))
+                                      is None else np.minimum(10.0,
+                                                              fraction * drive.no_load_speed))
     scenario = load_scenario()
     for bad in (12.0, 120.0, -1.0):
         scenario.controller.drive_voltage = bad
