@@ -198,14 +198,15 @@ def artefacts_config() -> ReproduceConfig:
 
 # ----------------------------------------------------------------------------- run folder
 #: The run folder's format (``DIR/config.json``); see :meth:`Run._prepare`.
-RUN_FORMAT_VERSION = 2
+RUN_FORMAT_VERSION = 3
 
 
 class Run:
     """The run folder: settings, stage folders and their results."""
 
     def __init__(self, out, config: ReproduceConfig, quick: bool, workers: int,
-                 executor: str = "local", progress: bool = True, protocol: str = "paper"):
+                 executor: str = "local", progress: bool = True, protocol: str = "paper",
+                 scenario: str = "default"):
         if protocol not in PROTOCOLS:
             raise ReproduceError(f"unknown protocol {protocol!r}; choose one of "
                                  f"{', '.join(PROTOCOLS)}")
@@ -213,15 +214,19 @@ class Run:
         self.config, self.quick, self.workers = config, quick, workers
         self.executor, self.progress = executor, progress
         self.protocol = PROTOCOLS[protocol]
+        self.scenario_name = scenario
         self._prepare()
 
     def _prepare(self) -> None:
-        # ``version`` names the referee's rules and the returnable bound the stages' results
-        # are judged by: a folder of another version is refused, never resumed into a mix.
+        # ``version`` names the referee's rules, the returnable bound and the default robot the
+        # stages' results are judged by: a folder of another version is refused, never resumed
+        # into a mix.
         settings = {"format": "tt-drake-reproduce", "version": RUN_FORMAT_VERSION,
                     "quick": self.quick, "config": self.config.to_dict()}
         if self.protocol.name != "paper":  # a paper run's settings are those of earlier runs
             settings["protocol"] = self.protocol.name
+        if self.scenario_name != "default":
+            settings["scenario"] = self.scenario_name
         # Held while this Run lives: a second run into the same folder is refused.
         self._lock = claim_folder(self.root, "config.json", settings, ReproduceError, "run")
 
@@ -259,7 +264,7 @@ class Run:
 
     def scenario(self, library: str = "", crkr: str = "", predictor: str = "",
                  configuration: str = "crkr", distribution: str | None = None):
-        scenario = load_scenario("default")
+        scenario = load_scenario(self.scenario_name)
         learned = scenario.learned
         learned.library, learned.crkr, learned.predictor = library, crkr, predictor
         learned.configuration = configuration
@@ -470,6 +475,7 @@ def stage_predictor(run: Run) -> dict:
     test_mix = None if features == "states" else ",".join(
         sorted({d for _, d in run.protocol.evaluate}))
     train = train_predictor(c.predictor_train_serves, c.predictor_train_seed, str(model),
+                            camera=run.scenario().camera,
                             restarts=c.predictor_restarts, workers=run.workers,
                             progress=run.progress, distribution=train_mix,
                             feature_set=features)
@@ -922,14 +928,15 @@ SIZES = {"full": _per_protocol(ReproduceConfig, hard_config),
 
 def reproduce(out, quick: bool = False, workers: int | None = None, executor: str = "local",
               progress: bool = True, config: ReproduceConfig | None = None,
-              protocol: str = "paper", until: str | None = None, sizes: str | None = None
-              ) -> dict:
+              protocol: str = "paper", until: str | None = None, sizes: str | None = None,
+              scenario: str = "default") -> dict:
     """Run the missing stages, then write the report; returns the report dict. ``protocol``:
     a name in :data:`PROTOCOLS`. ``config``: the stage sizes, else those named ``sizes`` (a key
     of :data:`SIZES`), else the protocol's quick or full ones. ``until``: stop after this
     stage; a run stopped after the ``crkr`` stage (or later, before ``final``) exports the
     library, CrKR and predictor trained so far to ``DIR/artefacts/`` (the primitives with
-    gamma = 1 if no learning stage ran)."""
+    gamma = 1 if no learning stage ran). ``scenario``: the scenario every stage plays (a name
+    or YAML path, :func:`load_scenario`; ``ideal_robot`` for the ideal drives and camera)."""
     if executor not in EXECUTORS:
         raise ReproduceError(f"unknown executor {executor!r}; choose one of "
                              f"{', '.join(EXECUTORS)}")
@@ -944,9 +951,10 @@ def reproduce(out, quick: bool = False, workers: int | None = None, executor: st
     # Every file a stage will read, checked before the first stage: the final stage serves real
     # ball states (serves.json) after hours of the others.
     used = {*PROTOCOLS[protocol].train, *(d for _, d in PROTOCOLS[protocol].evaluate)}
-    check_inputs(load_scenario("default"),
+    check_inputs(load_scenario(scenario),
                  distributions=("real",) if any(d.startswith("real") for d in used) else ())
-    run = Run(out, config, quick, workers or default_workers(), executor, progress, protocol)
+    run = Run(out, config, quick, workers or default_workers(), executor, progress, protocol,
+              scenario)
     with executor_session(executor, run.workers):
         for k, stage in enumerate(STAGES, 1):
             if run.result(stage) is not None:

@@ -55,6 +55,8 @@ LAZY = {
     ("tt_drake.diagrams.commands.collect", "tt_drake.diagrams.inputs"): "pydrake, when run",
     ("tt_drake.diagrams.commands.collect", "tt_drake.diagrams.parallel"): "pydrake, when run",
     ("tt_drake.diagrams.commands.train", "tt_drake.diagrams.train"): "pydrake, when run",
+    ("tt_drake.diagrams.commands.train_predictor", "tt_drake.diagrams.scenario"):
+        "pydrake, when run",
     ("tt_drake.diagrams.commands.train_predictor", "tt_drake.diagrams.predictor"):
         "pydrake, when run",
     ("tt_drake.diagrams.commands.eval_predictor", "tt_drake.diagrams.predictor"):

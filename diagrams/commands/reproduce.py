@@ -39,6 +39,9 @@ def register(subparsers) -> None:
     p.add_argument("--until", default=None, choices=REPRODUCE_STAGES,
                    help="stop after this stage; from crkr on, export the artefacts trained so "
                         "far to DIR/artefacts/")
+    p.add_argument("--scenario", default="default",
+                   help="scenario every stage plays: a name (models/<name>.yaml) or YAML path "
+                        "(ideal_robot: the ideal drives and camera)")
     add_quiet_option(p, "no progress output")
     p.set_defaults(run=run)
 
@@ -52,7 +55,7 @@ def run(args) -> None:
     quick = args.quick or args.sizes == "quick"
     report = reproduce(args.out, quick, args.workers, args.executor,
                        progress=not args.quiet, protocol=args.protocol,
-                       sizes=args.sizes, until=args.until)
+                       sizes=args.sizes, until=args.until, scenario=args.scenario)
     for row in report["table"]:
         print(f"{row['experiment']}: paper {row['paper']}, ours {row['ours']}")
     print(f"wrote {args.out}/report.md and {args.out}/report.json")

@@ -6,12 +6,15 @@ its progress as it goes:
 
 with COMMAND one of
 
-    sac   --serves default --seed 0 --steps 1500 --out DIR
-    ppo   --serves default --seed 0 --steps 1500 --out DIR
-    cmaes --serves default --seed 0 --steps 1500 --out DIR
+    sac   --serves default --seed 0 --steps 1500 --out DIR [--scenario S]
+    ppo   --serves default --seed 0 --steps 1500 --out DIR [--scenario S]
+    cmaes --serves default --seed 0 --steps 1500 --out DIR [--scenario S]
     evaluate DIR [DIR ...] --episodes 100
-    teachers --serves default --episodes 100 --out DIR
+    teachers --serves default --episodes 100 --out DIR [--scenario S]
     report DIR [DIR ...] --teachers DIR --png FILE
+
+``--scenario`` (a name in models/ or a YAML path; default ``default``) is the environments' and
+the teachers' scenario; a run records it in ``config.json`` and ``evaluate`` plays it there.
 
 One step of ReturnBall-v0 is one serve, so ``--steps`` counts training episodes. SAC and PPO are
 Stable-Baselines3's (``pip install "tt-drake[rl]"``: SB3 and torch, optional); CMA-ES (the
@@ -88,8 +91,14 @@ class SeededServes(gymnasium.Wrapper):
         return self.env.reset(seed=seed, options={**(options or {}), "serve_seed": serve})
 
 
-def make_env(serves: str, reward: str = "shaped"):
-    return gymnasium.make(ENV_ID, distribution=serves, action="absolute", reward=reward)
+#: The scenario of a run whose ``config.json`` names none: such runs were made when the default
+#: robot had ideal drives and no camera latency, the ``ideal_robot`` scenario's.
+LEGACY_SCENARIO = "ideal_robot"
+
+
+def make_env(serves: str, reward: str = "shaped", scenario: str = "default"):
+    return gymnasium.make(ENV_ID, scenario=scenario, distribution=serves, action="absolute",
+                          reward=reward)
 
 
 class Progress:
@@ -130,11 +139,12 @@ def _start_run(args, algorithm: str) -> tuple[Path, dict]:
     folder = Path(args.out)
     folder.mkdir(parents=True, exist_ok=True)
     config = {"algorithm": algorithm, "env": ENV_ID, "action": "absolute", "serves": args.serves,
-              "seed": args.seed, "reward": args.reward,
+              "seed": args.seed, "reward": args.reward, "scenario": args.scenario,
               "train_base": (CMAES_BASE if algorithm == "cmaes" else TRAIN_BASE) + args.seed}
     path = folder / "config.json"
     if path.exists():
         old = json.loads(path.read_text())
+        old.setdefault("scenario", LEGACY_SCENARIO)
         if {k: old.get(k) for k in config} != config:
             raise SystemExit(f"rl_baselines: {folder} holds another run ({old}); choose another "
                              "--out")
@@ -160,7 +170,8 @@ def train_sb3(args) -> int:
     progress = Progress(folder)
     progress.truncate(done)
     norm_path = folder / "vecnormalize.pkl"
-    env = SeededServes(make_env(args.serves, args.reward), config["train_base"], first=done)
+    env = SeededServes(make_env(args.serves, args.reward, args.scenario), config["train_base"],
+                       first=done)
     # Observations and rewards normalised by running statistics (SB3's VecNormalize): the raw
     # observation mixes metres, m/s and spins of tens of rad/s (the MLP's tanh saturates), and a
     # miss's shaped reward is at most 0.1.
@@ -234,7 +245,8 @@ def train_cmaes(args) -> int:
     done = state["episodes"] if state else 0
     progress = Progress(folder)
     progress.truncate(done)
-    env = SeededServes(make_env(args.serves, args.reward), config["train_base"], first=done)
+    env = SeededServes(make_env(args.serves, args.reward, args.scenario), config["train_base"],
+                       first=done)
     n_obs, n_act = env.observation_space.shape[0], env.action_space.shape[0]
     size = n_act * (n_obs + 1)
     x0 = np.asarray(state["mean"]) if state else np.zeros(size)
@@ -295,7 +307,8 @@ def evaluate(args) -> int:
         overlap = trained.intersection(seeds)
         if overlap:
             raise SystemExit(f"rl_baselines: {folder} trained on evaluation serves {overlap}")
-        env = make_env(config["serves"], reward="referee")
+        env = make_env(config["serves"], reward="referee",
+                       scenario=config.get("scenario", LEGACY_SCENARIO))
         policy = load_policy(folder, env)
         episodes, cpu = [], time.process_time()
         for serve in seeds:
@@ -338,8 +351,8 @@ def teachers(args) -> int:
         path = folder / f"{args.serves}_{options[1]}{'_hard' if 'hard' in options else ''}.json"
         if not path.exists():
             code = tt_drake_main(["serve", *options, "--distribution", args.serves, "--serves",
-                             str(args.episodes), "--seed", str(EVAL_BASE), "--quiet",
-                             "--json", str(path)])
+                             str(args.episodes), "--seed", str(EVAL_BASE), "--scenario",
+                             args.scenario, "--quiet", "--json", str(path)])
             if code:
                 return code
         data = json.loads(path.read_text())
@@ -351,7 +364,8 @@ def teachers(args) -> int:
         results[label] = rates(episodes)
         print(f"{label} ({args.serves}): {summary_line(results[label])}")
     # The floor: uniform random absolute actions (seeded) on the same serves.
-    env, rng = make_env(args.serves, reward="referee"), np.random.default_rng(EVAL_BASE)
+    env = make_env(args.serves, reward="referee", scenario=args.scenario)
+    rng = np.random.default_rng(EVAL_BASE)
     episodes = []
     for serve in evaluation_seeds(args.episodes):
         env.reset(options={"serve_seed": serve})
@@ -434,6 +448,8 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--out", required=True, help="run folder (resumed if it exists)")
         p.add_argument("--reward", default="shaped", choices=("shaped", "referee"))
         p.add_argument("--checkpoint", type=int, default=100, help="episodes per checkpoint")
+        p.add_argument("--scenario", default="default",
+                       help="scenario name (models/<name>.yaml) or YAML path")
         if name == "ppo":
             p.add_argument("--rollout", type=int, default=128,
                            help="episodes per PPO update (n_steps; default: 128)")
@@ -448,6 +464,8 @@ def build_parser() -> argparse.ArgumentParser:
     te.add_argument("--serves", default="default")
     te.add_argument("--episodes", type=int, default=100)
     te.add_argument("--out", required=True)
+    te.add_argument("--scenario", default="default",
+                    help="scenario name (models/<name>.yaml) or YAML path")
     rep = sub.add_parser("report", help="table and learning curves")
     rep.add_argument("runs", nargs="+")
     rep.add_argument("--teachers", default=None, help="the teachers' folder")

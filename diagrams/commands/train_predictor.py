@@ -19,6 +19,9 @@ def register(subparsers) -> None:
     p.add_argument("--features", default="states", choices=("states", "states+spin"),
                    help="GPR inputs: the four observed states (the paper's), or those and "
                         "the estimated spin at the fourth")
+    p.add_argument("--scenario", default="default",
+                   help="scenario whose camera the features are drawn with: a name "
+                        "(models/<name>.yaml) or YAML path")
     add_quiet_option(p)
     p.set_defaults(run=run)
 
@@ -27,7 +30,9 @@ def run(args) -> None:
     # The predictor's ball-only world imports pydrake: loaded when the command runs, not for
     # --help.
     from tt_drake.diagrams.predictor import format_train, train_predictor
+    from tt_drake.diagrams.scenario import load_scenario
 
-    print(format_train(train_predictor(args.serves, args.seed, args.out,
+    camera = load_scenario(args.scenario).camera
+    print(format_train(train_predictor(args.serves, args.seed, args.out, camera=camera,
                                        progress=not args.quiet, distribution=args.distribution,
                                        feature_set=args.features)))

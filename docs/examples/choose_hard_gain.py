@@ -1,6 +1,7 @@
 """Choose the hard profile's hitting-DMP gain alpha_y on validation serves.
 
     OPENBLAS_NUM_THREADS=1 python docs/examples/choose_hard_gain.py RUN OUT [--workers 2]
+        [--scenario S]
 
 RUN is a hard run's folder with its ``teacher``, ``predictor`` and ``crkr`` stages
 (``tt-drake reproduce --protocol hard --out RUN --until crkr``); OUT receives one library per
@@ -44,13 +45,14 @@ def library(run: Path, out: Path, alpha_y: int) -> Path:
 
 
 def figures(run: Path, out: Path, alpha_y: int, distribution: str, serves: int, seed: int,
-            workers: int) -> dict:
+            workers: int, scenario: str = "default") -> dict:
     """The gamma = 1 hard player's rates (``tt_drake.diagrams.protocols.rates``) with the
-    library of ``alpha_y`` on ``serves`` serves of ``distribution`` (pools dealt by ``seed``)."""
+    library of ``alpha_y`` on ``serves`` serves of ``distribution`` (pools dealt by ``seed``) in
+    ``scenario`` (a name in models/ or a YAML path)."""
     path = out / f"a{alpha_y}_{distribution}.json"
     if path.exists():
         return json.loads(path.read_text())
-    scenario = load_scenario("default")
+    scenario = load_scenario(scenario)
     learned = scenario.learned
     learned.library = str(library(run, out, alpha_y))
     learned.crkr = str(run / "crkr" / "crkr_1.npz")
@@ -68,6 +70,8 @@ def main() -> None:
     parser.add_argument("run", type=Path)
     parser.add_argument("out", type=Path)
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--scenario", default="default",
+                        help="scenario name (models/<name>.yaml) or YAML path")
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     carried = {}
@@ -75,7 +79,8 @@ def main() -> None:
     print("|---|---|---|---|---|---|")
     for alpha_y in (STIFF, *CANDIDATES):
         for distribution, serves, seed in VALIDATION:
-            r = figures(args.run, args.out, alpha_y, distribution, serves, seed, args.workers)
+            r = figures(args.run, args.out, alpha_y, distribution, serves, seed, args.workers,
+                        args.scenario)
             carried[alpha_y, distribution] = r["momp_return_rate"]
             print(f"| {alpha_y} | {distribution} ({serves}, seed {seed}) | "
                   f"{r['momp_return_rate']:.1%} | {r['momp_target_rate']:.1%} | "

@@ -1,13 +1,15 @@
 """How much faster two processes work than one on this machine, for a fixed piece of work.
 
     OPENBLAS_NUM_THREADS=1 python docs/examples/cpu_scaling.py [--kernel python|serve] [--rounds 3]
+        [--scenario S]
 
 Runs the same work in 1 process, then in ``--workers`` (default 2) forked processes started
 together (a barrier), alternately for ``--rounds`` rounds, and prints per round each run's wall
 time, each process's CPU time and the speed-up ``workers * t_1 / t_N`` (t: wall time of one
 process's work). ``python``: a pure-Python arithmetic loop (fits in the L1 cache: what the cores
-themselves give). ``serve``: ``--serves`` idle serve episodes of the default scenario (Drake's
-plant, contact and integrator plus the Python systems; the diagram is built before the timer).
+themselves give). ``serve``: ``--serves`` idle serve episodes of ``--scenario`` (default: the
+default scenario; Drake's plant, contact and integrator plus the Python systems; the diagram is
+built before the timer).
 A ceiling well below ``workers`` on the ``python`` kernel is the machine's (for example two
 virtual CPUs sharing one physical core), not the code's. Used for docs/performance.md.
 """
@@ -27,12 +29,12 @@ def _python_work(n: int) -> float:
 
 
 def _job(args) -> tuple[float, float]:
-    kernel, size, barrier = args
+    kernel, size, barrier, scenario = args
     if kernel == "serve":
         from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
         from tt_drake.diagrams.scenario import load_scenario
 
-        diagram = ServeDiagram(load_scenario(), "idle")
+        diagram = ServeDiagram(load_scenario(scenario), "idle")
         diagram.run(episode_seed(1, 0))  # warm-up
     if barrier is not None:
         barrier.wait()
@@ -45,12 +47,13 @@ def _job(args) -> tuple[float, float]:
     return time.perf_counter() - t0, time.process_time() - c0
 
 
-def _run(kernel: str, size: int, workers: int) -> list[tuple[float, float]]:
+def _run(kernel: str, size: int, workers: int,
+         scenario: str = "default") -> list[tuple[float, float]]:
     context = multiprocessing.get_context("fork")
     if workers == 1:
         process = context.Pool(1)
         try:
-            return process.map(_job, [(kernel, size, None)])
+            return process.map(_job, [(kernel, size, None, scenario)])
         finally:
             process.close()
             process.join()
@@ -58,7 +61,7 @@ def _run(kernel: str, size: int, workers: int) -> list[tuple[float, float]]:
     barrier = manager.Barrier(workers)
     pool = context.Pool(workers)
     try:
-        return pool.map(_job, [(kernel, size, barrier)] * workers, chunksize=1)
+        return pool.map(_job, [(kernel, size, barrier, scenario)] * workers, chunksize=1)
     finally:
         pool.close()
         pool.join()
@@ -72,12 +75,14 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--loops", type=int, default=20_000_000, help="python kernel's iterations")
     ap.add_argument("--serves", type=int, default=10, help="serve kernel's episodes")
+    ap.add_argument("--scenario", default="default",
+                    help="scenario name (models/<name>.yaml) or YAML path")
     args = ap.parse_args()
     size = args.serves if args.kernel == "serve" else args.loops
     print(f"kernel {args.kernel}, {args.workers} workers")
     for r in range(args.rounds):
-        (one_wall, one_cpu), = _run(args.kernel, size, 1)
-        many = _run(args.kernel, size, args.workers)
+        (one_wall, one_cpu), = _run(args.kernel, size, 1, args.scenario)
+        many = _run(args.kernel, size, args.workers, args.scenario)
         walls = [w for w, _ in many]
         cpus = [c for _, c in many]
         speedup = args.workers * one_wall / max(walls)

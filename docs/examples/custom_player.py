@@ -1,5 +1,8 @@
 """A player of one's own (a LeafSystem holding the racket turned away), registered once, played
-in a serve, as robot B of a rally and in a Gymnasium step environment (docs/diagrams.md)."""
+in a serve, as robot B of a rally and in a Gymnasium step environment (docs/diagrams.md):
+`python docs/examples/custom_player.py [--scenario S]`."""
+
+import argparse
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
@@ -29,11 +32,15 @@ def add_statue(builder, world, controller, scenario) -> list:
     return []
 
 
+parser = argparse.ArgumentParser(description=__doc__)
+parser.add_argument("--scenario", default="default",
+                    help="scenario name (models/<name>.yaml) or YAML path")
+args = parser.parse_args()
 register_player("statue", add_statue)
-print("serve:", ServeDiagram(load_scenario(), "statue").run(5).outcome.outcome)
-rally = RallyDiagram(rally_scenario(load_scenario()), ("analytical", "statue")).run(11)
+print("serve:", ServeDiagram(load_scenario(args.scenario), "statue").run(5).outcome.outcome)
+rally = RallyDiagram(rally_scenario(load_scenario(args.scenario)), ("analytical", "statue")).run(11)
 print("rally:", [e.player for e in rally.exchanges], rally.fault.kind, "by", rally.fault.player)
-env = ReturnBallStepEnv(player="statue")
+env = ReturnBallStepEnv(scenario=args.scenario, player="statue")
 env.reset(options={"serve_seed": 5})
 while not any((step := env.step(np.zeros(7)))[2:4]):  # until terminated or truncated
     pass

@@ -1,6 +1,7 @@
 """The DMP sensitivity maps: CPU per map, and how many a run of momp serves has to compute.
 
     OPENBLAS_NUM_THREADS=1 python docs/examples/dmp_maps.py [--serves 100] [--cache 256]
+        [--scenario S]
 
 First the CPU time of computing one map (``HittingDMP._integrate_sensitivity``) for seven step
 counts of the learned player's range, three passes; then ``--serves`` momp serves (seed 3, the
@@ -23,6 +24,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--serves", type=int, default=100)
     ap.add_argument("--cache", type=int, default=256)
+    ap.add_argument("--scenario", default="default",
+                    help="scenario name (models/<name>.yaml) or YAML path")
     args = ap.parse_args()
     model = dmp.HittingDMP()
     for r in range(3):
@@ -51,7 +54,7 @@ def main() -> None:
 
     dmp.HittingDMP.sensitivity = counted_sensitivity
     dmp.HittingDMP._integrate_sensitivity = counted_integrate
-    scenario = load_scenario()
+    scenario = load_scenario(args.scenario)
     use_artefact_set(scenario.learned)  # the shipped paper set, as `tt-drake serve` plays it
     diagram = ServeDiagram(scenario, "momp")
     first, last_asked, last_computed = 1, 0, 0

@@ -18,7 +18,8 @@ constant offset is then a complete policy. On the ``default`` distribution a con
 must suit every serve at once, and the best one is 0.
 
     python docs/examples/gym_cmaes.py --episodes 200 --seed 0 --distribution fixed \
-        --random-json docs/img/gym_random.json --out docs/img/gym_learning_curve
+        --random-json docs/img/gym_random.json --out docs/img/gym_learning_curve \
+        --scenario ideal_robot
 
 writes ``<out>.json`` (per-generation rates, the final evaluation) and ``<out>.png`` (the
 learning curve, with the random policy's and the analytical player's rates from
@@ -136,6 +137,8 @@ def main(argv=None) -> int:
                         "final mean is evaluated (default: 30, as gym_random.py)")
     parser.add_argument("--distribution", default="fixed", choices=["default", "real", "fixed"],
                         help="serve distribution (default: fixed)")
+    parser.add_argument("--scenario", default="default",
+                        help="scenario name (models/<name>.yaml) or YAML path")
     parser.add_argument("--random-json", default=None,
                         help="gym_random.py's JSON, to draw its rates (optional)")
     parser.add_argument("--out", default="gym_cmaes", help="output stem: writes <out>.json and "
@@ -178,7 +181,8 @@ def main(argv=None) -> int:
              f"CMA-ES on ReturnBall-v0 ({run['distribution']} serves, seed {run['seed']})")
         return 0
     wall = time.perf_counter()
-    env = gymnasium.make("tt_drake/ReturnBall-v0", distribution=args.distribution)
+    env = gymnasium.make("tt_drake/ReturnBall-v0", scenario=args.scenario,
+                         distribution=args.distribution)
     run = optimise(env, args.episodes, args.seed, args.popsize, args.serves, args.sigma0)
     mean = np.asarray(run["mean"])
     final = rollouts(env, lambda obs: mean, args.eval_episodes, args.seed)

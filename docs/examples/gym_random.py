@@ -6,7 +6,7 @@ The random policy samples every action from the action space (uniform offsets of
 0.1 rad to theta_hit and 1 rad/s to theta_dot_hit per joint, the environment's defaults).
 
     python docs/examples/gym_random.py --episodes 30 --seed 0 --distribution fixed \
-        --out docs/img/gym_random
+        --out docs/img/gym_random --scenario ideal_robot
 
 writes ``<out>.json`` (per-episode rewards and successes, the rates) and ``<out>.png`` (the
 running success rates).
@@ -69,6 +69,8 @@ def main(argv=None) -> int:
                         "actions (default: 0)")
     parser.add_argument("--distribution", default="fixed", choices=["default", "real", "fixed"],
                         help="serve distribution (default: fixed)")
+    parser.add_argument("--scenario", default="default",
+                        help="scenario name (models/<name>.yaml) or YAML path")
     parser.add_argument("--out", default="gym_random", help="output stem: writes <out>.json and "
                         "<out>.png (default: gym_random)")
     args = parser.parse_args(argv)
@@ -82,7 +84,8 @@ def main(argv=None) -> int:
         print(f"gym_random: {err}", file=sys.stderr)
         return 2
     wall = time.perf_counter()
-    env = gymnasium.make("tt_drake/ReturnBall-v0", distribution=args.distribution)
+    env = gymnasium.make("tt_drake/ReturnBall-v0", scenario=args.scenario,
+                         distribution=args.distribution)
     env.action_space.seed(args.seed)
     random = rollouts(env, lambda obs: env.action_space.sample(), args.episodes, args.seed)
     analytical = rollouts(env, lambda obs: np.zeros(env.action_space.shape), args.episodes,

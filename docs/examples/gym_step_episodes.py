@@ -1,7 +1,8 @@
 """Step-env episodes with fixed policies, recorded for comparing two versions of the code
 (docs/performance.md, "The integrator's accuracy").
 
-    OPENBLAS_NUM_THREADS=1 python docs/examples/gym_step_episodes.py OUT.json [--episodes 8]
+    OPENBLAS_NUM_THREADS=1 python docs/examples/gym_step_episodes.py OUT.json [--episodes 8] \
+        [--scenario S]
     python docs/examples/gym_step_episodes.py --compare A.json B.json
 
 Runs ``tt_drake/ReturnBallStep-v0`` (100 Hz) on serves 1000, 1001, ...: even episodes with zero
@@ -20,13 +21,13 @@ import time
 import numpy as np
 
 
-def record(out: str, episodes: int) -> None:
+def record(out: str, episodes: int, scenario: str = "default") -> None:
     import gymnasium
 
     import tt_drake.gym  # noqa: F401 (registers the environments)
     from tt_drake.outputs import write_json_atomic
 
-    env = gymnasium.make("tt_drake/ReturnBallStep-v0", control_rate=100.0)
+    env = gymnasium.make("tt_drake/ReturnBallStep-v0", scenario=scenario, control_rate=100.0)
     runs = []
     cpu = 0.0
     for i in range(episodes):
@@ -66,11 +67,13 @@ def main() -> None:
     ap.add_argument("out", nargs="?")
     ap.add_argument("--episodes", type=int, default=8)
     ap.add_argument("--compare", nargs=2, metavar=("A", "B"))
+    ap.add_argument("--scenario", default="default",
+                    help="scenario name (models/<name>.yaml) or YAML path")
     args = ap.parse_args()
     if args.compare:
         compare(*args.compare)
     elif args.out:
-        record(args.out, args.episodes)
+        record(args.out, args.episodes, args.scenario)
     else:
         ap.error("give OUT.json or --compare A B")
 

@@ -1,6 +1,7 @@
 """Where the integrator spends its steps in a serve episode, by phase (docs/performance.md).
 
     python docs/examples/integrator_phases.py momp [--serves 10] [--seed 3] [--accuracy A]
+        [--scenario S]
 
 Builds the serve diagram (learned players: the shipped artefacts in models/learned/) and, with a
 simulator monitor (called after every simulator step), counts the error-controlled integrator's
@@ -42,8 +43,10 @@ def main() -> None:
     ap.add_argument("--flight-accuracy", type=float, default=None)
     ap.add_argument("--spin-max", type=float, default=0.0,
                     help="> 0: the spin distribution with this spin per axis (rad/s)")
+    ap.add_argument("--scenario", default="default",
+                    help="scenario name (models/<name>.yaml) or YAML path")
     args = ap.parse_args()
-    scenario = load_scenario()
+    scenario = load_scenario(args.scenario)
     use_artefact_set(scenario.learned)  # the shipped paper set, as `tt-drake serve` plays it
     if args.accuracy is not None:
         scenario.world.simulator.accuracy = args.accuracy

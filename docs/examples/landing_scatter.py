@@ -3,7 +3,7 @@
 
     OPENBLAS_NUM_THREADS=1 python docs/examples/landing_scatter.py --artefacts hard \\
         --distribution spin --serves 60 --seed 2026 [--library L --crkr C --predictor P] \\
-        [--perception camera|oracle] [--json F]
+        [--perception camera|oracle] [--json F] [--scenario S]
 
 Plays the serves of ``tt-drake serve --player momp ... --configuration analytical`` with the
 moving goal (``--seed S``: ``episode_seed(S, i)``, the pools dealt by run seed S) in this process
@@ -215,9 +215,11 @@ def main() -> int:
     ap.add_argument("--serves", type=int, default=60)
     ap.add_argument("--seed", type=int, default=2026)
     ap.add_argument("--json")
+    ap.add_argument("--scenario", default="default",
+                    help="scenario name (models/<name>.yaml) or YAML path")
     args = ap.parse_args()
 
-    scenario = load_scenario()
+    scenario = load_scenario(args.scenario)
     use_artefact_set(scenario.learned, args.artefacts)
     learned = scenario.learned
     for name in ("library", "crkr", "predictor"):

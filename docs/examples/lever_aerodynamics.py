@@ -3,6 +3,7 @@ process, interleaved (docs/performance.md, "The serve diagram's Python").
 
     python docs/examples/lever_aerodynamics.py OLD.py [--player idle]
         [--serves 10] [--seed 3] [--rounds 3] [--library ... --crkr ... --predictor ...]
+        [--scenario S]
     python docs/examples/lever_aerodynamics.py OLD.py --ball-only
 
 ``OLD.py``: a module defining ``add_aerodynamics`` with the signature of
@@ -73,6 +74,8 @@ def main() -> None:
     ap.add_argument("--crkr", default="")
     ap.add_argument("--predictor", default="")
     ap.add_argument("--ball-only", action="store_true")
+    ap.add_argument("--scenario", default="default",
+                    help="scenario name (models/<name>.yaml) or YAML path")
     args = ap.parse_args()
     spec = importlib.util.spec_from_file_location("old_aerodynamics", args.old)
     old = importlib.util.module_from_spec(spec)
@@ -80,7 +83,7 @@ def main() -> None:
     if args.ball_only:
         _ball_only(old, args.rounds, args.serves)
         return
-    scenario = load_scenario()
+    scenario = load_scenario(args.scenario)
     scenario.learned.library, scenario.learned.crkr = args.library, args.crkr
     scenario.learned.predictor = args.predictor
     variants = {"python": _build(scenario, args.player, old.add_aerodynamics),

@@ -3,6 +3,7 @@ plans of real momp serves (docs/performance.md).
 
     python docs/examples/lever_effort_check.py --library models/learned/library.npz \
         --crkr models/learned/crkr.npz --predictor models/learned/predictor.npz [--serves 5]
+        [--scenario S]
 
 Records every (plan, now) the player checks during ``--serves`` serves, then times
 :func:`tt_drake.stages.within_effort` and the former per-sample loop (``segment.evaluate`` at
@@ -42,8 +43,10 @@ def main() -> None:
     ap.add_argument("--predictor", default="")
     ap.add_argument("--serves", type=int, default=5)
     ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--scenario", default="default",
+                    help="scenario name (models/<name>.yaml) or YAML path")
     args = ap.parse_args()
-    scenario = load_scenario()
+    scenario = load_scenario(args.scenario)
     scenario.learned.library, scenario.learned.crkr = args.library, args.crkr
     scenario.learned.predictor = args.predictor
     checked = []

@@ -3,6 +3,7 @@ process").
 
     OPENBLAS_NUM_THREADS=1 python docs/examples/lever_toggle.py segments [--player momp]
         [--serves 12] [--seed 3] [--perception camera|oracle] [--distribution D] [--record]
+        [--scenario S]
 
 Builds the serve diagram once, runs one warm-up episode, then runs each serve twice, once with
 the lever and once without (the order alternating from serve to serve), and prints the CPU time
@@ -165,8 +166,10 @@ def main() -> None:
     ap.add_argument("--perception", default=None, help="camera or oracle (default: scenario's)")
     ap.add_argument("--distribution", default=None, help="the launcher's serves (e.g. spin)")
     ap.add_argument("--record", action="store_true", help="record demonstrations (collect's)")
+    ap.add_argument("--scenario", default="default",
+                    help="scenario name (models/<name>.yaml) or YAML path")
     args = ap.parse_args()
-    scenario = load_scenario()
+    scenario = load_scenario(args.scenario)
     if args.perception is not None:
         scenario = dataclasses.replace(scenario, perception=args.perception)
     if args.distribution is not None:

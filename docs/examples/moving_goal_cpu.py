@@ -2,7 +2,7 @@
 moves: when they are tried again").
 
     OPENBLAS_NUM_THREADS=1 python docs/examples/moving_goal_cpu.py --distribution real-test \\
-        --seed 13 --serves 60 --out F.json
+        --seed 13 --serves 60 --out F.json [--scenario S]
 
 Plays the serves of ``tt-drake serve --player momp --artefacts hard --distribution D --seed S``
 (pools dealt as that command deals them) in this process and writes its JSON (same layout, so
@@ -33,6 +33,8 @@ def main() -> None:
     ap.add_argument("--serves", type=int, default=60)
     ap.add_argument("--seed", type=int, default=2027)
     ap.add_argument("--out", required=True)
+    ap.add_argument("--scenario", default="default",
+                    help="scenario name (models/<name>.yaml) or YAML path")
     args = ap.parse_args()
 
     counts = {"tries": 0, "move_cpu": 0.0}
@@ -53,7 +55,7 @@ def main() -> None:
     momp_player.MoMPTrajectorySource._move_goal = timed_step
     momp_player.move_hitting_goal = counted_move
 
-    scenario = load_scenario()
+    scenario = load_scenario(args.scenario)
     use_artefact_set(scenario.learned, args.artefacts)
     scenario.launcher.distribution = args.distribution
     scenario.launcher.run_seed = args.seed  # as `tt-drake serve --seed S` deals a pool

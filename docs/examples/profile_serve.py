@@ -1,6 +1,7 @@
 """Where a serve episode's CPU time goes: cProfile in CPU time (docs/performance.md).
 
     OPENBLAS_NUM_THREADS=1 python docs/examples/profile_serve.py momp [--serves 8] [--seed 3]
+        [--scenario S]
 
 Builds the serve diagram once (learned players: the shipped artefacts in models/learned/), runs
 one warm-up episode, then profiles ``--serves`` episodes with
@@ -38,8 +39,10 @@ def main() -> None:
     ap.add_argument("--serves", type=int, default=8)
     ap.add_argument("--seed", type=int, default=3)
     ap.add_argument("--top", type=int, default=25)
+    ap.add_argument("--scenario", default="default",
+                    help="scenario name (models/<name>.yaml) or YAML path")
     args = ap.parse_args()
-    scenario = load_scenario()
+    scenario = load_scenario(args.scenario)
     use_artefact_set(scenario.learned)  # the shipped paper set, as `tt-drake serve` plays it
     diagram = ServeDiagram(scenario, args.player)
     diagram.run(episode_seed(args.seed, 0))

@@ -2,6 +2,7 @@
 (docs/performance.md, "The Python floor, and what is left").
 
     OPENBLAS_NUM_THREADS=1 python docs/examples/python_floor.py [--serves 20] [--seed 3]
+        [--scenario S]
 
 Plays the momp player's serves once (untimed) to record the set-points its episodes gave the
 servo and their durations, then times, serve by serve in one process (the order rotating, as
@@ -295,8 +296,10 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--serves", type=int, default=20)
     ap.add_argument("--seed", type=int, default=3)
+    ap.add_argument("--scenario", default="default",
+                    help="scenario name (models/<name>.yaml) or YAML path")
     args = ap.parse_args()
-    scenario = load_scenario()
+    scenario = load_scenario(args.scenario)
     use_artefact_set(scenario.learned)  # the shipped paper set, as `tt-drake serve` plays it
     seeds = [episode_seed(args.seed, i) for i in range(args.serves)]
     durations, trajectories = _record_setpoints(scenario, "momp", seeds)

@@ -1,6 +1,7 @@
 """CPU time per serve episode of one player, in this process (docs/performance.md).
 
     OPENBLAS_NUM_THREADS=1 python docs/examples/serve_cpu.py momp [--serves 10] [--seed 3]
+        [--scenario S]
 
 Builds the serve diagram once (learned players: the shipped artefacts in models/learned/), runs
 one warm-up episode and prints the CPU time (``time.process_time``) per episode over ``--serves``
@@ -23,8 +24,10 @@ def main() -> None:
     ap.add_argument("player")
     ap.add_argument("--serves", type=int, default=10)
     ap.add_argument("--seed", type=int, default=3)
+    ap.add_argument("--scenario", default="default",
+                    help="scenario name (models/<name>.yaml) or YAML path")
     args = ap.parse_args()
-    scenario = load_scenario()
+    scenario = load_scenario(args.scenario)
     use_artefact_set(scenario.learned)  # the shipped paper set, as `tt-drake serve` plays it
     c0 = time.process_time()
     diagram = ServeDiagram(scenario, args.player)

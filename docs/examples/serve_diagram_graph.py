@@ -2,7 +2,7 @@
 docs/img/serve_diagram_<player>.dot and docs/img/station.dot and, where Graphviz's `dot` is
 installed (a development tool, not a dependency), the SVGs rendered from them.
 
-    python docs/examples/serve_diagram_graph.py [PLAYER] [--depth N]
+    python docs/examples/serve_diagram_graph.py [PLAYER] [--depth N] [--scenario S]
 
 ``--depth`` (default 1) is how many levels of sub-diagrams are drawn open: at 1 the station is
 one box with its named ports, and the player's systems are wired to them.
@@ -25,8 +25,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("player", nargs="?", default="analytical")
     parser.add_argument("--depth", type=int, default=1)
+    parser.add_argument("--scenario", default="default",
+                        help="scenario name (models/<name>.yaml) or YAML path")
     args = parser.parse_args()
-    scenario = load_scenario("default")
+    scenario = load_scenario(args.scenario)
     if args.player in ("momp", "crkr"):
         use_artefact_set(scenario.learned, "paper", configuration_given=args.player == "crkr")
     graphs = {f"serve_diagram_{args.player}": ServeDiagram(scenario, args.player).diagram,

@@ -1,7 +1,8 @@
 """Build the station, wire the analytical player to its ports, simulate one serve and save the
-Meshcat recording: `python docs/examples/station.py [OUT.html]` (default out/station.html)."""
+Meshcat recording: `python docs/examples/station.py [OUT.html] [--scenario S]` (default
+out/station.html)."""
 
-import sys
+import argparse
 from pathlib import Path
 
 from pydrake.systems.framework import DiagramBuilder
@@ -14,7 +15,12 @@ from tt_drake.seeds import episode_seed
 from tt_drake.systems.wam import hold_first_setpoint
 from tt_drake.systems.world import make_simulator
 
-scenario, meshcat = load_scenario("default"), make_meshcat()
+parser = argparse.ArgumentParser(description=__doc__)
+parser.add_argument("out", nargs="?", default="out/station.html", help="the recording's page")
+parser.add_argument("--scenario", default="default",
+                    help="scenario name (models/<name>.yaml) or YAML path")
+args = parser.parse_args()
+scenario, meshcat = load_scenario(args.scenario), make_meshcat()
 station = build_station(scenario, robots=1, meshcat=meshcat)  # make_station: the Diagram alone
 builder = DiagramBuilder()
 builder.AddSystem(station.diagram)
@@ -34,7 +40,7 @@ station.visualizer.PublishRecording()
 port = station.diagram.GetOutputPort("outcome")
 outcome = port.Eval(station.diagram.GetMyContextFromRoot(context))
 print(f"{outcome.outcome}: landing {outcome.landing}, hit at {outcome.hit_time} s")
-out = Path(sys.argv[1] if len(sys.argv) > 1 else "out/station.html")
+out = Path(args.out)
 out.parent.mkdir(parents=True, exist_ok=True)
 out.write_text(meshcat.StaticHtml(), encoding="utf-8")
 print(f"wrote {out}")

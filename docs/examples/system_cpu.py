@@ -1,7 +1,7 @@
 """CPU time per serve of each Python system of the serve diagram, without a profiler.
 
     OPENBLAS_NUM_THREADS=1 python docs/examples/system_cpu.py momp [--serves 10] [--seed 3]
-        [--perception camera|oracle] [--distribution D] [--record]
+        [--perception camera|oracle] [--distribution D] [--record] [--scenario S]
 
 (``--perception oracle --record``: the serves as the paper protocol's teacher stage plays them,
 ``tt-drake collect --perception oracle``: recorded, so not ended when the outcome is decided.)
@@ -90,6 +90,8 @@ def main() -> None:
     ap.add_argument("--perception", default=None, help="camera or oracle (default: scenario's)")
     ap.add_argument("--distribution", default=None, help="the launcher's serves (e.g. spin)")
     ap.add_argument("--record", action="store_true", help="record demonstrations (collect's)")
+    ap.add_argument("--scenario", default="default",
+                    help="scenario name (models/<name>.yaml) or YAML path")
     args = ap.parse_args()
     spent = defaultdict(float)
     calls = defaultdict(int)
@@ -110,7 +112,7 @@ def main() -> None:
                 calls[_label] += 1
 
         setattr(owner, name, functools.wraps(inner)(timed))
-    scenario = with_serves(load_scenario(), args.perception, args.distribution)
+    scenario = with_serves(load_scenario(args.scenario), args.perception, args.distribution)
     use_artefact_set(scenario.learned)  # the shipped paper set, as `tt-drake serve` plays it
     diagram = ServeDiagram(scenario, args.player, record=args.record)
     diagram.run(episode_seed(args.seed, 0))

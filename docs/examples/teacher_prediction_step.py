@@ -2,7 +2,7 @@
 
     OPENBLAS_NUM_THREADS=1 python docs/examples/teacher_prediction_step.py [--serves 3]
         [--seed 3] [--perception oracle] [--distribution default] [--steps 0.004 0.01]
-        [--in-serves N]
+        [--in-serves N] [--scenario S]
 
 Plays ``--serves`` analytical serves (recorded, as the teacher stage plays them) and keeps every
 (estimate, time, spin) the player predicted from; then predicts from each again
@@ -34,10 +34,11 @@ from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.hitting_time import HittingBand, choose_hitting_point
 
 
-def recorded_predictions(serves: int, seed: int, perception: str, distribution: str) -> list:
+def recorded_predictions(serves: int, seed: int, perception: str, distribution: str,
+                         scenario: str = "default") -> list:
     """The (estimate, time, spin, bounces behind) of every prediction the teacher made in
-    ``serves`` serves."""
-    scenario = load_scenario()
+    ``serves`` serves of ``scenario`` (a name in models/ or a YAML path)."""
+    scenario = load_scenario(scenario)
     scenario = dataclasses.replace(scenario, perception=perception, launcher=dataclasses.replace(
         scenario.launcher, distribution=distribution))
     calls = []
@@ -58,9 +59,10 @@ def recorded_predictions(serves: int, seed: int, perception: str, distribution: 
     return calls
 
 
-def in_serves(serves: int, seed: int, perception: str, distribution: str) -> None:
+def in_serves(serves: int, seed: int, perception: str, distribution: str,
+              scenario: str = "default") -> None:
     """The predictions' and the serves' CPU per serve at 2 ms and at ``PREDICTION_STEP``."""
-    scenario = load_scenario()
+    scenario = load_scenario(scenario)
     scenario = dataclasses.replace(scenario, perception=perception, launcher=dataclasses.replace(
         scenario.launcher, distribution=distribution))
     spent = {True: 0.0, False: 0.0}
@@ -118,11 +120,14 @@ def main() -> None:
     ap_.add_argument("--distribution", default="default")
     ap_.add_argument("--steps", type=float, nargs="+", default=[0.004, 0.01])
     ap_.add_argument("--in-serves", type=int, default=0, help="time the predictions in serves")
+    ap_.add_argument("--scenario", default="default",
+                     help="scenario name (models/<name>.yaml) or YAML path")
     args = ap_.parse_args()
     if args.in_serves:
-        in_serves(args.in_serves, args.seed, args.perception, args.distribution)
+        in_serves(args.in_serves, args.seed, args.perception, args.distribution, args.scenario)
         return
-    calls = recorded_predictions(args.serves, args.seed, args.perception, args.distribution)
+    calls = recorded_predictions(args.serves, args.seed, args.perception, args.distribution,
+                                 args.scenario)
     # (label, forward step, bounce-test step): the old 2 ms for both first.
     variants = [("2 ms", 2e-3, 2e-3)]
     for dt in args.steps:
