@@ -29,7 +29,7 @@ from tt_drake.systems.aerodynamics import AerodynamicsConfig
 from tt_drake.systems.ball_launcher import LauncherConfig
 from tt_drake.systems.ball_oracle import PERCEPTIONS
 from tt_drake.systems.world import ModelFileError, WorldConfig, is_explicit_path, model_path
-from tt_drake.wam_params import EFFORT_LIMIT, SUPPLY_VOLTAGE_RANGE
+from tt_drake.wam_params import DESIGN_VOLTAGE, EFFORT_LIMIT, SUPPLY_VOLTAGE_RANGE
 
 
 def _zeros7() -> list[float]:
@@ -50,8 +50,8 @@ class ControllerConfig:
 
     ``drive_voltage`` (V): the arm's DC drives at this supply voltage limit each joint's torque
     by its speed (back EMF: none left at the no-load speed; :mod:`tt_drake.drives`), in the
-    simulation and in the players' effort checks; 0 (the default): ideal drives, the effort
-    limits only. Barrett's motors are designed for 48 V; the WAM's supply takes 24-90 V."""
+    simulation and in the players' effort checks; 0: ideal drives, the effort limits only.
+    The default is Barrett's design voltage, 48 V (the WAM's supply takes 24-90 V)."""
 
     kp: list[float] = field(default_factory=lambda: [900.0] * 7)
     ki: list[float] = field(default_factory=lambda: [0.0] * 7)
@@ -62,7 +62,7 @@ class ControllerConfig:
     joint_coulomb: list[float] = field(default_factory=_zeros7)
     coulomb_velocity: float = 0.1
     torque_noise: list[float] = field(default_factory=_zeros7)
-    drive_voltage: float = 0.0
+    drive_voltage: float = DESIGN_VOLTAGE
 
     def problems(self) -> list[str]:
         """What is wrong with the values: the ``controller.*`` rules of :data:`FIELD_RULES`

@@ -34,6 +34,10 @@ MAX_CAMERA_RATE = 10_000.0
 #: Longest latency (s): a frame delivered a second after its capture arrives after the ball has
 #: crossed the table (a serve flies about 1 s); every frame in flight is held in the camera's state.
 MAX_CAMERA_LATENCY = 1.0
+#: Default latency (s): one frame of the 60 Hz tracking rate. A frame's position exists only
+#: after its images are exposed, read out and triangulated, so it reaches the robot no earlier
+#: than the next frame's capture (docs/constants.md, "Camera latency").
+DEFAULT_LATENCY = 1.0 / 60.0
 #: Most frames drawn per block (:meth:`CameraModel.block_draws`): about 100 bytes each, so a
 #: block is at most ~20 MB (55 min at 60 Hz, 20 s at the fastest rate; then the next block).
 MAX_CAMERA_FRAMES = 200_000
@@ -41,13 +45,14 @@ MAX_CAMERA_FRAMES = 200_000
 
 @dataclass
 class CameraConfig:
-    """Camera parameters (SI units). Defaults: 60 Hz, sigma = 3 mm per axis, no latency, no
-    dropouts, no outliers. The scenario's ``camera:`` section (a plain dataclass so that
-    ``yaml_load_typed`` can fill it; :meth:`problems` checks it after loading)."""
+    """Camera parameters (SI units). Defaults: 60 Hz, sigma = 3 mm per axis, a latency of one
+    60 Hz frame (:data:`DEFAULT_LATENCY`), no dropouts, no outliers. The scenario's ``camera:``
+    section (a plain dataclass so that ``yaml_load_typed`` can fill it; :meth:`problems` checks
+    it after loading)."""
 
     rate: float = 60.0
     sigma: float = 0.003
-    latency: float = 0.0
+    latency: float = DEFAULT_LATENCY
     dropout: float = 0.0
     outlier: float = 0.0
     outlier_min: float = 0.1

@@ -2,7 +2,7 @@
 speeds at the joints (docs/constants.md, "Drives").
 
     python docs/examples/joint_speeds.py [--distribution default] [--seed 6002] [--serves 60]
-                                         [--scenario wam_drives]
+                                         [--scenario ideal_robot]
 
 Runs the analytical player on ``--serves`` serves (base seed ``--seed``) and prints, per joint,
 the median, 90th percentile and largest peak |q_dot| over the episodes (the arm logger's

@@ -48,18 +48,20 @@ def test_recorded_hitting_stage_is_a_500hz_grid_up_to_the_hit(episode):
               result.outcome.hit_time - 1.0 / diagram.scenario.referee_rate)
     assert np.allclose(np.diff(rows[:, 0]), 1.0 / SAMPLE_RATE, atol=1e-9)
     assert end - 1.0 / SAMPLE_RATE - 1e-9 <= rows[-1, 0] <= end + 1e-9
-    # It starts within one servo period of the executed plan's hitting stage.
+    # It starts within one servo period of the executed plan's hitting stage (a correction
+    # during the stage can move the plan's stage start within the period its row was logged in).
     plan = [r for s, r in stage_runs(result.record["trajectory"]) if s == HIT][0]
-    assert plan[0, 0] - 1e-9 <= rows[0, 0] < plan[0, 0] + 1.0 / SAMPLE_RATE
+    assert abs(rows[0, 0] - plan[0, 0]) < 1.0 / SAMPLE_RATE
     # q_ddot is the plant's acceleration: the trapezoidal integral of it over each 2 ms step
     # gives the logged change of q_dot, to within how much the acceleration changes inside a
-    # step (the set-points are held for a servo period, the PD feedback and the dynamics move
-    # on: measured 3 rad/s^2 at worst, 0.6 median, with peaks of 45); the racket's impact, in
-    # the last samples, is excluded.
+    # step (the set-points are held for a servo period, the PD feedback, the dynamics and the
+    # drives' speed-dependent torque bound move on: a fifth of the peak at worst where a drive
+    # enters or leaves its bound inside a step, a fiftieth in the median); the racket's
+    # impact, in the last samples, is excluded.
     qd, qdd = rows[:-2, 9:16], rows[:-2, 16:23]
     rate = np.diff(qd, axis=0) * SAMPLE_RATE
     trapezoid = 0.5 * (qdd[1:] + qdd[:-1])
-    assert np.abs(rate - trapezoid).max() < 0.1 * np.abs(qdd).max()
+    assert np.abs(rate - trapezoid).max() < 0.2 * np.abs(qdd).max()
     assert np.median(np.abs(rate - trapezoid)) < 0.02 * np.abs(qdd).max()
 
 

@@ -66,7 +66,7 @@ def test_the_scenarios_teacher_settings_reach_the_analytical_player():
 
 
 def test_the_scenarios_drives_reach_every_players_effort_check(tmp_path):
-    """``controller.drive_voltage`` (0 by default; 48 V in the shipped ``wam_drives``
+    """``controller.drive_voltage`` (48 V by default; 0 in the shipped ``ideal_robot``
     scenario) is the voltage of the teacher's effort check, of the learned player's and of
     its hitting configuration's planner; a bad voltage is named."""
     from tt_drake.diagrams.episodes import ServeDiagram
@@ -74,7 +74,7 @@ def test_the_scenarios_drives_reach_every_players_effort_check(tmp_path):
     from tt_drake.drives import DriveEnvelope
     from tt_drake.models import use_artefact_set
 
-    for name, drive in (("default", None), ("wam_drives", DriveEnvelope(48.0))):
+    for name, drive in (("ideal_robot", None), ("default", DriveEnvelope(48.0))):
         scenario = load_scenario(name)
         planner = ServeDiagram(scenario, "analytical").player.planner
         assert planner.effort_budget.drive == drive

@@ -375,3 +375,23 @@ def test_the_training_and_selection_stages_never_draw_a_test_split(tmp_path, mon
     rp.stage_final(run)
     evaluated = {c["distribution"] for c in recorder.calls}
     assert ("real-test" in evaluated) == (protocol == "hard")
+
+
+def test_a_run_plays_its_scenario_and_refuses_a_folder_of_another(tmp_path, monkeypatch):
+    """``scenario``: every stage's scenario is the one named (``ideal_robot``: no drive limit,
+    no camera latency), recorded in the run's settings; resuming the folder with the default
+    scenario is refused, not mixed."""
+    played = []
+    stubs = {stage: (lambda run: played.append(run.scenario()) or {}) for stage in rp.STAGES}
+    monkeypatch.setattr(rp, "STAGE_FUNCTIONS", stubs)
+    monkeypatch.setattr(rp, "write_report", lambda run: {})
+    rp.reproduce(tmp_path / "run", quick=True, workers=1, progress=False, until="teacher",
+                 scenario="ideal_robot")
+    settings = json.loads((tmp_path / "run" / "config.json").read_text())
+    assert settings["scenario"] == "ideal_robot"
+    assert played[0].controller.drive_voltage == 0.0 and played[0].camera.latency == 0.0
+    with pytest.raises(rp.ReproduceError):
+        rp.reproduce(tmp_path / "run", quick=True, workers=1, progress=False, until="teacher")
+    rp.reproduce(tmp_path / "default", quick=True, workers=1, progress=False, until="teacher")
+    assert played[-1].controller.drive_voltage == 48.0
+    assert played[-1].camera.latency_frames == 1

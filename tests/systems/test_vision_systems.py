@@ -39,11 +39,26 @@ def step(system, context, t):
 
 
 def test_camera_without_noise_reports_the_true_position():
-    cam = BallCamera(CameraConfig(sigma=0.0))
+    cam = BallCamera(CameraConfig(sigma=0.0, latency=0.0))
     ctx = cam.CreateDefaultContext()
     cam.GetInputPort("ball_state").FixValue(ctx, ball_state([0.1, 0.2, 0.9]))
     assert math.isnan(cam.GetOutputPort("measurement").Eval(ctx)[3])
     step(cam, ctx, 0.0)
+    assert cam.GetOutputPort("measurement").Eval(ctx) == pytest.approx([0.1, 0.2, 0.9, 0.0, 1.0])
+
+
+def test_the_default_camera_delivers_each_frame_one_frame_late():
+    """Default latency: one 60 Hz frame, so the frame captured at 0 arrives at the next capture,
+    stamped with its own capture time and position."""
+    assert CameraConfig().latency_frames == 1
+    cam = BallCamera(CameraConfig(sigma=0.0))
+    ctx = cam.CreateDefaultContext()
+    port = cam.GetInputPort("ball_state")
+    port.FixValue(ctx, ball_state([0.1, 0.2, 0.9]))
+    step(cam, ctx, 0.0)
+    assert math.isnan(cam.GetOutputPort("measurement").Eval(ctx)[3])
+    port.FixValue(ctx, ball_state([0.1, 0.1, 0.9]))
+    step(cam, ctx, PERIOD)
     assert cam.GetOutputPort("measurement").Eval(ctx) == pytest.approx([0.1, 0.2, 0.9, 0.0, 1.0])
 
 

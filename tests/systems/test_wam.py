@@ -311,6 +311,17 @@ def test_gravity_torques_within_effort_limits(arm):
     assert ratio.max() < 0.5
 
 
+def _recipe_simulator(diagram, plant, instance):
+    """A Simulator of ``diagram`` with the project's recipe (RK3, accuracy 1e-4, max step 2 ms)
+    and the arm at AWAITING; returns it and the plant's context."""
+    simulator = Simulator(diagram)
+    ApplySimulatorConfig(SimulatorConfig(integration_scheme="runge_kutta3", accuracy=1e-4,
+                                         max_step_size=2e-3), simulator)
+    context = plant.GetMyMutableContextFromRoot(simulator.get_mutable_context())
+    plant.SetPositions(context, instance, wam_params.AWAITING)
+    return simulator, context
+
+
 def _hold(q0, duration=2.0):
     """Simulate the arm under InverseDynamicsController commanded to stay at AWAITING, with the
     project's recipe (continuous plant, RK3, accuracy 1e-4, max step 2 ms). Returns the
@@ -326,11 +337,7 @@ def _hold(q0, duration=2.0):
     zero = builder.AddSystem(ConstantVectorSource(np.zeros(7)))
     builder.Connect(zero.get_output_port(), controller.get_input_port_desired_acceleration())
     diagram = builder.Build()
-    simulator = Simulator(diagram)
-    ApplySimulatorConfig(SimulatorConfig(integration_scheme="runge_kutta3", accuracy=1e-4,
-                                         max_step_size=2e-3), simulator)
-    context = plant.GetMyMutableContextFromRoot(simulator.get_mutable_context())
-    plant.SetPositions(context, instance, wam_params.AWAITING)
+    simulator, context = _recipe_simulator(diagram, plant, instance)
     target = wam.racket_pose(plant, context, instance).translation().copy()
     plant.SetPositions(context, instance, q0)
     start = wam.racket_pose(plant, context, instance).translation().copy()
@@ -387,11 +394,7 @@ def _driven_arm(torque, voltage):
     if voltage is not None:
         wam.add_drive_limits(builder, plant, instance, command.get_output_port(), voltage)
     diagram = builder.Build()
-    simulator = Simulator(diagram)
-    ApplySimulatorConfig(SimulatorConfig(integration_scheme="runge_kutta3", accuracy=1e-4,
-                                         max_step_size=2e-3), simulator)
-    context = plant.GetMyMutableContextFromRoot(simulator.get_mutable_context())
-    plant.SetPositions(context, instance, wam_params.AWAITING)
+    simulator, context = _recipe_simulator(diagram, plant, instance)
     return diagram, simulator, plant, instance, context
 
 
