@@ -6,7 +6,8 @@ weights do move the impact: one hitting primitive imitated from the teacher's st
 low-gain DMP (alpha_y = 10), which no longer pulls the arm to the goal and so arrives off the
 hitting configuration on other serves. Each rollout runs the explored weights on a fixed pair of
 serves and earns their mean reward; three PoWER updates of six rollouts must raise the mean
-reward of the mean weights on those serves.
+reward of the mean weights on those serves. On the ideal robot, the robot of the learning
+figures in docs/reproducing.md.
 """
 
 from __future__ import annotations
@@ -31,9 +32,9 @@ def test_power_raises_the_reward_of_a_low_gain_primitive_in_the_diagram(tmp_path
 
     models = files("tt_drake.models") / "learned"
     data, library = tmp_path / "teacher", tmp_path / "library.npz"
-    collect(load_scenario(), "analytical", 2, 11, str(data), progress=False)
+    collect(load_scenario("ideal_robot"), "analytical", 2, 11, str(data), progress=False)
     train_library(data, library, primitives=1, dmp=HittingDMP(alpha_y=10.0))
-    scenario = load_scenario()
+    scenario = load_scenario("ideal_robot")
     scenario.learned.library = str(library)
     scenario.learned.crkr = str(models / "crkr.npz")
     scenario.learned.predictor = str(models / "predictor.npz")
