@@ -34,10 +34,12 @@ MAX_CAMERA_RATE = 10_000.0
 #: Longest latency (s): a frame delivered a second after its capture arrives after the ball has
 #: crossed the table (a serve flies about 1 s); every frame in flight is held in the camera's state.
 MAX_CAMERA_LATENCY = 1.0
-#: Default latency (s): one frame of the 60 Hz tracking rate. A frame's position exists only
+#: Default frame rate (Hz): the paper's 60 Hz tracking.
+DEFAULT_RATE = 60.0
+#: Default latency (s): one frame at the default rate. A frame's position exists only
 #: after its images are exposed, read out and triangulated, so it reaches the robot no earlier
 #: than the next frame's capture (docs/constants.md, "Camera latency").
-DEFAULT_LATENCY = 1.0 / 60.0
+DEFAULT_LATENCY = 1.0 / DEFAULT_RATE
 #: Most frames drawn per block (:meth:`CameraModel.block_draws`): about 100 bytes each, so a
 #: block is at most ~20 MB (55 min at 60 Hz, 20 s at the fastest rate; then the next block).
 MAX_CAMERA_FRAMES = 200_000
@@ -50,7 +52,7 @@ class CameraConfig:
     section (a plain dataclass so that ``yaml_load_typed`` can fill it; :meth:`problems` checks
     it after loading)."""
 
-    rate: float = 60.0
+    rate: float = DEFAULT_RATE
     sigma: float = 0.003
     latency: float = DEFAULT_LATENCY
     dropout: float = 0.0

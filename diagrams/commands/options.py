@@ -165,9 +165,15 @@ def add_quiet_option(p: argparse.ArgumentParser, help: str = "no progress bar") 
     p.add_argument("--quiet", action="store_true", help=help)
 
 
+def add_scenario_option(p: argparse.ArgumentParser,
+                        help: str = "scenario name (models/<name>.yaml) or YAML path") -> None:
+    """``--scenario``: the scenario a command or script plays (:func:`load_scenario`'s name or
+    path; ``ideal_robot`` for the ideal drives and camera), ``default`` unless given."""
+    p.add_argument("--scenario", default="default", help=help)
+
+
 def add_scenario_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--scenario", default="default",
-                   help="scenario name (models/<name>.yaml) or YAML path")
+    add_scenario_option(p)
     p.add_argument("--distribution", default=None, type=distribution, choices=DISTRIBUTIONS,
                    help="override the launcher's serve distribution (default: the scenario's)")
     p.add_argument("--spin-max", type=float, default=None,

@@ -4,6 +4,7 @@ from tt_drake.diagrams.commands.options import (
     CliError,
     add_command,
     add_quiet_option,
+    add_scenario_option,
     add_workers_option,
     one_of,
 )
@@ -39,9 +40,8 @@ def register(subparsers) -> None:
     p.add_argument("--until", default=None, choices=REPRODUCE_STAGES,
                    help="stop after this stage; from crkr on, export the artefacts trained so "
                         "far to DIR/artefacts/")
-    p.add_argument("--scenario", default="default",
-                   help="scenario every stage plays: a name (models/<name>.yaml) or YAML path "
-                        "(ideal_robot: the ideal drives and camera)")
+    add_scenario_option(p, help="scenario every stage plays: a name (models/<name>.yaml) or "
+                                "YAML path (ideal_robot: the ideal drives and camera)")
     add_quiet_option(p, "no progress output")
     p.set_defaults(run=run)
 

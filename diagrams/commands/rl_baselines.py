@@ -54,6 +54,7 @@ from matplotlib.figure import Figure
 
 import tt_drake.gym  # noqa: F401  (registers the environments)
 from tt_drake.diagrams.cli import main as tt_drake_main
+from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.intervals import wilson
 from tt_drake.outputs import write_json_atomic, write_text_atomic
 from tt_drake.seeds import episode_seed
@@ -448,8 +449,7 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--out", required=True, help="run folder (resumed if it exists)")
         p.add_argument("--reward", default="shaped", choices=("shaped", "referee"))
         p.add_argument("--checkpoint", type=int, default=100, help="episodes per checkpoint")
-        p.add_argument("--scenario", default="default",
-                       help="scenario name (models/<name>.yaml) or YAML path")
+        add_scenario_option(p)
         if name == "ppo":
             p.add_argument("--rollout", type=int, default=128,
                            help="episodes per PPO update (n_steps; default: 128)")
@@ -464,8 +464,7 @@ def build_parser() -> argparse.ArgumentParser:
     te.add_argument("--serves", default="default")
     te.add_argument("--episodes", type=int, default=100)
     te.add_argument("--out", required=True)
-    te.add_argument("--scenario", default="default",
-                    help="scenario name (models/<name>.yaml) or YAML path")
+    add_scenario_option(te)
     rep = sub.add_parser("report", help="table and learning curves")
     rep.add_argument("runs", nargs="+")
     rep.add_argument("--teachers", default=None, help="the teachers' folder")

@@ -14,6 +14,7 @@ import json
 import sys
 
 from tt_drake.diagrams.ball_world import BallOnlyWorld
+from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import load_scenario, validate
 from tt_drake.diagrams.serve import returnable_serves
@@ -55,7 +56,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m tt_drake.diagrams.commands.spin_report")
     p.add_argument("--serves", type=int, required=True)
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--scenario", default="default")
+    add_scenario_option(p)
     p.add_argument("--distribution", default=None)
     p.add_argument("--player", default="analytical")
     p.add_argument("--ceiling", action="store_true",

@@ -3,6 +3,7 @@
 from tt_drake.diagrams.commands.options import (
     add_command,
     add_quiet_option,
+    add_scenario_option,
     add_seed_option,
     add_serves_option,
 )
@@ -19,9 +20,8 @@ def register(subparsers) -> None:
     p.add_argument("--features", default="states", choices=("states", "states+spin"),
                    help="GPR inputs: the four observed states (the paper's), or those and "
                         "the estimated spin at the fourth")
-    p.add_argument("--scenario", default="default",
-                   help="scenario whose camera the features are drawn with: a name "
-                        "(models/<name>.yaml) or YAML path")
+    add_scenario_option(p, help="scenario whose camera the features are drawn with: a name "
+                                "(models/<name>.yaml) or YAML path")
     add_quiet_option(p)
     p.set_defaults(run=run)
 

@@ -22,6 +22,7 @@ import json
 import types
 from pathlib import Path
 
+from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.diagrams.parallel import run_episodes
 from tt_drake.diagrams.protocols import rates
 from tt_drake.diagrams.scenario import load_scenario
@@ -70,8 +71,7 @@ def main() -> None:
     parser.add_argument("run", type=Path)
     parser.add_argument("out", type=Path)
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--scenario", default="default",
-                        help="scenario name (models/<name>.yaml) or YAML path")
+    add_scenario_option(parser)
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     carried = {}

@@ -20,6 +20,8 @@ import argparse
 import multiprocessing
 import time
 
+from tt_drake.diagrams.commands.options import add_scenario_option
+
 
 def _python_work(n: int) -> float:
     x = 0.0
@@ -75,8 +77,7 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--loops", type=int, default=20_000_000, help="python kernel's iterations")
     ap.add_argument("--serves", type=int, default=10, help="serve kernel's episodes")
-    ap.add_argument("--scenario", default="default",
-                    help="scenario name (models/<name>.yaml) or YAML path")
+    add_scenario_option(ap)
     args = ap.parse_args()
     size = args.serves if args.kernel == "serve" else args.loops
     print(f"kernel {args.kernel}, {args.workers} workers")

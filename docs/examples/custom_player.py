@@ -7,6 +7,7 @@ import argparse
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
+from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.diagrams.episodes import ServeDiagram
 from tt_drake.diagrams.gym_envs import ReturnBallStepEnv
 from tt_drake.diagrams.players import register_player
@@ -33,8 +34,7 @@ def add_statue(builder, world, controller, scenario) -> list:
 
 
 parser = argparse.ArgumentParser(description=__doc__)
-parser.add_argument("--scenario", default="default",
-                    help="scenario name (models/<name>.yaml) or YAML path")
+add_scenario_option(parser)
 args = parser.parse_args()
 register_player("statue", add_statue)
 print("serve:", ServeDiagram(load_scenario(args.scenario), "statue").run(5).outcome.outcome)

@@ -16,6 +16,7 @@ import argparse
 import time
 
 from tt_drake import dmp
+from tt_drake.diagrams.commands.options import add_scenario_option
 
 STEPS = (26, 74, 150, 200, 300, 400, 629)
 
@@ -24,8 +25,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--serves", type=int, default=100)
     ap.add_argument("--cache", type=int, default=256)
-    ap.add_argument("--scenario", default="default",
-                    help="scenario name (models/<name>.yaml) or YAML path")
+    add_scenario_option(ap)
     args = ap.parse_args()
     model = dmp.HittingDMP()
     for r in range(3):

@@ -40,6 +40,7 @@ import matplotlib
 import numpy as np
 
 import tt_drake.gym  # noqa: F401  (registers the environments)
+from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.outputs import OutputError, check_writable, write_json_atomic
 
 matplotlib.use("Agg")
@@ -137,8 +138,7 @@ def main(argv=None) -> int:
                         "final mean is evaluated (default: 30, as gym_random.py)")
     parser.add_argument("--distribution", default="fixed", choices=["default", "real", "fixed"],
                         help="serve distribution (default: fixed)")
-    parser.add_argument("--scenario", default="default",
-                        help="scenario name (models/<name>.yaml) or YAML path")
+    add_scenario_option(parser)
     parser.add_argument("--random-json", default=None,
                         help="gym_random.py's JSON, to draw its rates (optional)")
     parser.add_argument("--out", default="gym_cmaes", help="output stem: writes <out>.json and "

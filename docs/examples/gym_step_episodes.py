@@ -20,6 +20,8 @@ import time
 
 import numpy as np
 
+from tt_drake.diagrams.commands.options import add_scenario_option
+
 
 def record(out: str, episodes: int, scenario: str = "default") -> None:
     import gymnasium
@@ -67,8 +69,7 @@ def main() -> None:
     ap.add_argument("out", nargs="?")
     ap.add_argument("--episodes", type=int, default=8)
     ap.add_argument("--compare", nargs=2, metavar=("A", "B"))
-    ap.add_argument("--scenario", default="default",
-                    help="scenario name (models/<name>.yaml) or YAML path")
+    add_scenario_option(ap)
     args = ap.parse_args()
     if args.compare:
         compare(*args.compare)

@@ -26,6 +26,7 @@ from collections import defaultdict
 import numpy as np
 from pydrake.systems.framework import EventStatus
 
+from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.models import use_artefact_set
@@ -43,8 +44,7 @@ def main() -> None:
     ap.add_argument("--flight-accuracy", type=float, default=None)
     ap.add_argument("--spin-max", type=float, default=0.0,
                     help="> 0: the spin distribution with this spin per axis (rad/s)")
-    ap.add_argument("--scenario", default="default",
-                    help="scenario name (models/<name>.yaml) or YAML path")
+    add_scenario_option(ap)
     args = ap.parse_args()
     scenario = load_scenario(args.scenario)
     use_artefact_set(scenario.learned)  # the shipped paper set, as `tt-drake serve` plays it

@@ -14,6 +14,7 @@ import argparse
 
 import numpy as np
 
+from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.diagrams.episodes import ServeDiagram
 from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.drives import DriveEnvelope
@@ -30,7 +31,7 @@ def main() -> None:
     parser.add_argument("--distribution", default="default")
     parser.add_argument("--seed", type=int, default=6002)
     parser.add_argument("--serves", type=int, default=60)
-    parser.add_argument("--scenario", default="default")
+    add_scenario_option(parser)
     args = parser.parse_args()
     scenario = load_scenario(args.scenario)
     scenario.launcher.distribution = args.distribution

@@ -40,6 +40,7 @@ import numpy as np
 from tt_drake.ball_model import BallModel
 from tt_drake.constants import BALL
 from tt_drake.diagrams.ball_world import BallOnlyWorld
+from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.diagrams.spin_report import TrueFlight
@@ -215,8 +216,7 @@ def main() -> int:
     ap.add_argument("--serves", type=int, default=60)
     ap.add_argument("--seed", type=int, default=2026)
     ap.add_argument("--json")
-    ap.add_argument("--scenario", default="default",
-                    help="scenario name (models/<name>.yaml) or YAML path")
+    add_scenario_option(ap)
     args = ap.parse_args()
 
     scenario = load_scenario(args.scenario)

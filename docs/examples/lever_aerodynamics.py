@@ -26,6 +26,7 @@ import time
 import numpy as np
 
 import tt_drake.diagrams.episodes as episodes
+from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
 
@@ -74,8 +75,7 @@ def main() -> None:
     ap.add_argument("--crkr", default="")
     ap.add_argument("--predictor", default="")
     ap.add_argument("--ball-only", action="store_true")
-    ap.add_argument("--scenario", default="default",
-                    help="scenario name (models/<name>.yaml) or YAML path")
+    add_scenario_option(ap)
     args = ap.parse_args()
     spec = importlib.util.spec_from_file_location("old_aerodynamics", args.old)
     old = importlib.util.module_from_spec(spec)

@@ -19,6 +19,7 @@ import time
 import numpy as np
 
 import tt_drake.systems.momp_player as momp_player
+from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.stages import within_effort
@@ -43,8 +44,7 @@ def main() -> None:
     ap.add_argument("--predictor", default="")
     ap.add_argument("--serves", type=int, default=5)
     ap.add_argument("--rounds", type=int, default=3)
-    ap.add_argument("--scenario", default="default",
-                    help="scenario name (models/<name>.yaml) or YAML path")
+    add_scenario_option(ap)
     args = ap.parse_args()
     scenario = load_scenario(args.scenario)
     scenario.learned.library, scenario.learned.crkr = args.library, args.crkr

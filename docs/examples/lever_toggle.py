@@ -56,6 +56,7 @@ import statistics
 import time
 import types
 
+from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.models import use_artefact_set
@@ -166,8 +167,7 @@ def main() -> None:
     ap.add_argument("--perception", default=None, help="camera or oracle (default: scenario's)")
     ap.add_argument("--distribution", default=None, help="the launcher's serves (e.g. spin)")
     ap.add_argument("--record", action="store_true", help="record demonstrations (collect's)")
-    ap.add_argument("--scenario", default="default",
-                    help="scenario name (models/<name>.yaml) or YAML path")
+    add_scenario_option(ap)
     args = ap.parse_args()
     scenario = load_scenario(args.scenario)
     if args.perception is not None:

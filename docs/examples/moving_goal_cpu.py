@@ -20,6 +20,7 @@ import sys
 import time
 
 import tt_drake.systems.momp_player as momp_player
+from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.diagrams.serve import _report
@@ -33,8 +34,7 @@ def main() -> None:
     ap.add_argument("--serves", type=int, default=60)
     ap.add_argument("--seed", type=int, default=2027)
     ap.add_argument("--out", required=True)
-    ap.add_argument("--scenario", default="default",
-                    help="scenario name (models/<name>.yaml) or YAML path")
+    add_scenario_option(ap)
     args = ap.parse_args()
 
     counts = {"tries": 0, "move_cpu": 0.0}

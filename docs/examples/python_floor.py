@@ -48,6 +48,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import EventStatus, LeafSystem
 
 from tt_drake.diagrams.bench import ReferenceDiagram, _alternate, _record_setpoints, _replay_player
+from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.diagrams.episodes import ServeDiagram, connect_hitting_chain, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.models import use_artefact_set
@@ -296,8 +297,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--serves", type=int, default=20)
     ap.add_argument("--seed", type=int, default=3)
-    ap.add_argument("--scenario", default="default",
-                    help="scenario name (models/<name>.yaml) or YAML path")
+    add_scenario_option(ap)
     args = ap.parse_args()
     scenario = load_scenario(args.scenario)
     use_artefact_set(scenario.learned)  # the shipped paper set, as `tt-drake serve` plays it

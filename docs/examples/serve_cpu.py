@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import time
 
+from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.models import use_artefact_set
@@ -24,8 +25,7 @@ def main() -> None:
     ap.add_argument("player")
     ap.add_argument("--serves", type=int, default=10)
     ap.add_argument("--seed", type=int, default=3)
-    ap.add_argument("--scenario", default="default",
-                    help="scenario name (models/<name>.yaml) or YAML path")
+    add_scenario_option(ap)
     args = ap.parse_args()
     scenario = load_scenario(args.scenario)
     use_artefact_set(scenario.learned)  # the shipped paper set, as `tt-drake serve` plays it

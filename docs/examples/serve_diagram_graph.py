@@ -13,6 +13,7 @@ import shutil
 import subprocess
 from pathlib import Path
 
+from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.diagrams.episodes import ServeDiagram
 from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.diagrams.station import make_station
@@ -25,8 +26,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("player", nargs="?", default="analytical")
     parser.add_argument("--depth", type=int, default=1)
-    parser.add_argument("--scenario", default="default",
-                        help="scenario name (models/<name>.yaml) or YAML path")
+    add_scenario_option(parser)
     args = parser.parse_args()
     scenario = load_scenario(args.scenario)
     if args.player in ("momp", "crkr"):

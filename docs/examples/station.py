@@ -7,6 +7,7 @@ from pathlib import Path
 
 from pydrake.systems.framework import DiagramBuilder
 
+from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.diagrams.players import player_function
 from tt_drake.diagrams.recording import make_meshcat
 from tt_drake.diagrams.scenario import load_scenario
@@ -17,8 +18,7 @@ from tt_drake.systems.world import make_simulator
 
 parser = argparse.ArgumentParser(description=__doc__)
 parser.add_argument("out", nargs="?", default="out/station.html", help="the recording's page")
-parser.add_argument("--scenario", default="default",
-                    help="scenario name (models/<name>.yaml) or YAML path")
+add_scenario_option(parser)
 args = parser.parse_args()
 scenario, meshcat = load_scenario(args.scenario), make_meshcat()
 station = build_station(scenario, robots=1, meshcat=meshcat)  # make_station: the Diagram alone

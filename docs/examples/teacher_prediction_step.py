@@ -29,6 +29,7 @@ import numpy as np
 
 import tt_drake.systems.analytical_player as ap
 from tt_drake.constants import PLANES
+from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.hitting_time import HittingBand, choose_hitting_point
@@ -120,8 +121,7 @@ def main() -> None:
     ap_.add_argument("--distribution", default="default")
     ap_.add_argument("--steps", type=float, nargs="+", default=[0.004, 0.01])
     ap_.add_argument("--in-serves", type=int, default=0, help="time the predictions in serves")
-    ap_.add_argument("--scenario", default="default",
-                     help="scenario name (models/<name>.yaml) or YAML path")
+    add_scenario_option(ap_)
     args = ap_.parse_args()
     if args.in_serves:
         in_serves(args.in_serves, args.seed, args.perception, args.distribution, args.scenario)
