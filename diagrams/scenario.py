@@ -15,7 +15,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from pydrake.common.yaml import yaml_dump_typed, yaml_load_data, yaml_load_typed
+from pydrake.common.yaml import yaml_dump, yaml_dump_typed, yaml_load_data, yaml_load_typed
 from pydrake.systems.analysis import GetIntegrationSchemes
 
 from tt_drake.camera_model import CameraConfig
@@ -157,37 +157,97 @@ def resolve_model_paths(scenario: Scenario) -> None:
 
 
 def sets_field(name_or_path: str, dotted: str) -> bool:
-    """Whether the scenario file itself (not the default scenario under it) names the field
-    ``dotted`` (e.g. ``learned.configuration``): a command whose own default differs from the
-    dataclass's applies it only to a scenario that leaves the field alone. The file is assumed
-    loadable (:func:`load_scenario` first)."""
-    with open(scenario_path(name_or_path), encoding="utf-8") as f:
-        data: Any = yaml_load_data(f)
-    for key in dotted.split("."):
-        if not isinstance(data, dict) or key not in data:
+    """Whether the scenario file itself, or a file it is read on top of with ``base`` (not the
+    default scenario under them), names the field ``dotted`` (e.g. ``learned.configuration``): a
+    command whose own default differs from the dataclass's applies it only to a scenario that
+    leaves the field alone. The file is assumed loadable (:func:`load_scenario` first)."""
+    path = scenario_path(name_or_path)
+    while True:
+        data = _scenario_file_data(path)
+        found: Any = data
+        for key in dotted.split("."):
+            if not isinstance(found, dict) or key not in found:
+                break
+            found = found[key]
+        else:
+            return True
+        if data.get(BASE_KEY) is None:
             return False
-        data = data[key]
-    return True
+        path = _base_path(data[BASE_KEY], path)
+
+
+#: The key of a scenario file naming the scenario it is read on top of (a name or a path, as
+#: ``--scenario`` takes it; a relative path is taken from the file's folder). Without it a file
+#: is read on top of the default scenario.
+BASE_KEY = "base"
 
 
 def load_scenario(name_or_path: str = "default") -> Scenario:
     """Load a scenario by name (``models/<name>.yaml``) or path; raise ScenarioError on any
     problem, with one line that names it. Any file but ``models/default.yaml`` itself is read on
-    top of the default scenario: the fields it names change, every other one is the default
-    scenario's (which equal the dataclasses' defaults: tests/diagrams/test_scenario_defaults.py)."""
-    path = scenario_path(name_or_path)
+    top of another scenario: the one its ``base`` key names (:data:`BASE_KEY`), else the default
+    scenario (whose fields equal the dataclasses' defaults:
+    tests/diagrams/test_scenario_defaults.py). The fields a file names change; every other one is
+    its base's."""
+    scenario = _load_scenario_file(scenario_path(name_or_path), ())
+    validate(scenario, scenario_path(name_or_path))
+    resolve_model_paths(scenario)
+    return scenario
+
+
+def _load_scenario_file(path: Path, chain: tuple) -> Scenario:
+    """The scenario of the file at ``path`` on top of its base (:func:`load_scenario`);
+    ``chain``: the files that named it as their base, outermost first."""
     if not path.is_file():
-        raise ScenarioError(f"scenario file not found: {path}")
-    default = scenario_path("default")
-    base = Scenario() if path.resolve() == default.resolve() else load_scenario("default")
+        raise ScenarioError(f"scenario file not found: {path}"
+                            + (f" (the base of {chain[-1]})" if chain else ""))
+    if path.resolve() in chain:
+        loop = " -> ".join(str(p) for p in (*chain, path.resolve()))
+        raise ScenarioError(f"scenario files name each other as base: {loop}")
+    data = _scenario_file_data(path)
+    base_name = data.pop(BASE_KEY, None)
+    if path.resolve() == scenario_path("default").resolve():
+        if base_name is not None:
+            raise ScenarioError(f"invalid scenario {path}: the default scenario has no base")
+        base = Scenario()
+    elif base_name is None:
+        base = _load_scenario_file(scenario_path("default"), ())
+    else:
+        base = _load_scenario_file(_base_path(base_name, path), (*chain, path.resolve()))
     try:
-        scenario = yaml_load_typed(schema=Scenario, filename=str(path), defaults=base)
+        return yaml_load_typed(schema=Scenario, data=yaml_dump(data) if data else "{}",
+                               defaults=base)
     except Exception as err:  # yaml and schema errors come as several exception types
         message = " ".join(str(err).split())
         raise ScenarioError(f"invalid scenario {path}: {message}") from None
-    validate(scenario, path)
-    resolve_model_paths(scenario)
-    return scenario
+
+
+def _scenario_file_data(path: Path) -> dict:
+    """The mapping a scenario file holds (empty for an empty file)."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            data: Any = yaml_load_data(f)
+    except Exception as err:  # yaml errors come as several exception types
+        message = " ".join(str(err).split())
+        raise ScenarioError(f"invalid scenario {path}: {message}") from None
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        raise ScenarioError(f"invalid scenario {path}: the file must hold a mapping of fields, "
+                            f"not {type(data).__name__}")
+    return data
+
+
+def _base_path(base, path: Path) -> Path:
+    """The file a scenario file at ``path`` names as its ``base``: a scenario name, or a path
+    (relative paths from the file's folder)."""
+    if not isinstance(base, str) or not base:
+        raise ScenarioError(f"invalid scenario {path}: {BASE_KEY} must name a scenario or a "
+                            f"scenario file, got {base!r}")
+    if is_explicit_path(base) or base.endswith((".yaml", ".yml")):
+        explicit = Path(base)
+        return explicit if explicit.is_absolute() else path.parent / explicit
+    return scenario_path(base)
 
 
 # -- validation: one table of rules, one place ----------------------------------------------------

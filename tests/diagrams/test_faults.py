@@ -18,6 +18,7 @@ from tt_drake.diagrams.scenario import (
     Scenario,
     ScenarioError,
     load_scenario,
+    sets_field,
     validate,
 )
 from tt_drake.serves import DEFAULT_VY_RANGE, DEFAULT_X_RANGE, ServeSampler
@@ -54,6 +55,60 @@ def test_a_scenario_file_changes_only_what_it_names_of_the_default_scenario(tmp_
     loaded = load_scenario(write(tmp_path / "dropouts.yaml", "camera:\n  dropout: 0.2\n"))
     assert loaded.world.flight_accuracy == load_scenario().world.flight_accuracy > 0.0
     assert yaml_dump_typed(loaded) == yaml_dump_typed(expected)
+
+
+def test_a_scenario_file_is_read_on_top_of_the_scenario_its_base_names(tmp_path):
+    """``base``: a file names the scenario it changes (a name, or a path from its own folder);
+    the chain is followed to the default scenario, each file changing only what it names."""
+    from pydrake.common.yaml import yaml_dump_typed
+
+    (tmp_path / "sub").mkdir()
+    write(tmp_path / "sub" / "ideal_cf.yaml",
+          "base: ideal_robot\nteacher:\n  correction_fallbacks: true\n")
+    path = write(tmp_path / "noisy.yaml", "base: sub/ideal_cf.yaml\ncamera:\n  sigma: 0.002\n")
+    expected = load_scenario("ideal_robot")
+    expected.teacher.correction_fallbacks = True
+    expected.camera.sigma = 0.002
+    loaded = load_scenario(path)
+    assert loaded.controller.drive_voltage == 0.0 < load_scenario().controller.drive_voltage
+    assert yaml_dump_typed(loaded) == yaml_dump_typed(expected)
+    assert sets_field(path, "controller.drive_voltage")  # by its base
+    assert sets_field(path, "camera.sigma") and not sets_field(path, "learned.configuration")
+
+
+def test_the_fault_tables_files_are_the_ideal_robot_with_one_fault():
+    """docs/faults/*.yaml are read on top of the ideal robot (``base``; the gains file on top of
+    the model-mismatch file beside it): ideal drives and camera, the name the shipped artefacts
+    accept, and the fault each names."""
+    from pathlib import Path
+
+    folder = Path(__file__).resolve().parents[2] / "docs" / "faults"
+    ideal = load_scenario("ideal_robot")
+    loaded = {path.stem: load_scenario(str(path)) for path in sorted(folder.glob("*.yaml"))}
+    assert set(loaded) == {"dropouts", "latency", "outliers", "model_mismatch",
+                           "model_mismatch_gains"}
+    for scenario in loaded.values():
+        assert scenario.name == "default" and scenario.controller.drive_voltage == 0.0
+    assert loaded["dropouts"].camera.dropout == 0.2 and loaded["dropouts"].camera.latency == 0.0
+    assert loaded["latency"].camera.latency_frames == 1
+    assert loaded["outliers"].camera.outlier == 0.05
+    mismatch, gains = loaded["model_mismatch"].controller, loaded["model_mismatch_gains"].controller
+    assert mismatch.mass_scale == gains.mass_scale == 0.9
+    assert gains.joint_coulomb == mismatch.joint_coulomb
+    assert gains.kp == [2500.0] * 7 and mismatch.kp == ideal.controller.kp
+
+
+@pytest.mark.parametrize("text, message", [
+    ("base: no_such_scenario\n", "scenario file not found.*the base of"),
+    ("base: 3\n", "base must name a scenario"),
+    ("base: loop.yaml\n", "name each other as base"),
+    ("- camera\n", "must hold a mapping"),
+    ("base: ideal_robot\ncamera: {sigma: -1}\n", "camera.sigma"),
+])
+def test_a_bad_base_is_refused_naming_the_file(tmp_path, text, message):
+    path = write(tmp_path / "loop.yaml", text)
+    with pytest.raises(ScenarioError, match=message):
+        load_scenario(path)
 
 
 def test_latency_counts_whole_frames():
