@@ -33,7 +33,11 @@ import numpy as np
 
 from tt_drake.ball_model import CompliantBounceBallModel
 from tt_drake.constants import BALL, PLANES, TABLE, TARGET
-from tt_drake.diagrams.episodes import add_analytical_player, add_learned_player
+from tt_drake.diagrams.episodes import (
+    add_analytical_player,
+    add_learned_player,
+    teacher_planner_config,
+)
 from tt_drake.diagrams.scenario import LearnedPlayerConfig, Scenario
 from tt_drake.hitting_time import HittingBand, closest_approach
 from tt_drake.models import use_artefact_set
@@ -74,9 +78,11 @@ class OracleStrategy:
                              "> 0 (stream 0 is the evaluated players' own), an oracle none")
 
     def planner_config(self, scenario: Scenario) -> PlannerConfig:
+        """The scenario's teacher (:func:`teacher_planner_config`: its drives and ``teacher``
+        settings) with this strategy's target, band, plane and fallbacks."""
         x, y = self.target or (scenario.referee.target_x, scenario.referee.target_y)
-        config = PlannerConfig(target_x=x, target_y=y, band=self.band, plane_y=self.plane_y,
-                               drive_voltage=scenario.controller.drive_voltage)
+        config = dataclasses.replace(teacher_planner_config(scenario), target_x=x, target_y=y,
+                                     band=self.band, plane_y=self.plane_y)
         if self.stroke_spins is not None:
             config = dataclasses.replace(config, stroke_spins=self.stroke_spins)
         if self.reach_in:

@@ -54,7 +54,7 @@ from tt_drake.learned_player import (
 )
 from tt_drake.referee_rules import Outcome
 from tt_drake.seeds import episode_seed  # noqa: F401  (re-exported: runners import it here)
-from tt_drake.stages import HITTING
+from tt_drake.stages import HITTING, StageTimes
 from tt_drake.systems.analytical_player import AnalyticalPlayer, PlannerConfig, StrokePlanner
 from tt_drake.systems.ball_camera import BallCamera
 from tt_drake.systems.ball_flight_estimator import BallFlightEstimator
@@ -116,7 +116,9 @@ def teacher_planner_config(scenario: Scenario) -> PlannerConfig:
     within its arm's drives (``controller.drive_voltage``)."""
     return PlannerConfig(target_x=scenario.referee.target_x, target_y=scenario.referee.target_y,
                          correction_fallbacks=scenario.teacher.correction_fallbacks,
-                         drive_voltage=scenario.controller.drive_voltage)
+                         plan_fallbacks=scenario.teacher.plan_fallbacks,
+                         drive_voltage=scenario.controller.drive_voltage,
+                         times=StageTimes(min_hitting=scenario.teacher.min_hitting))
 
 
 def add_analytical_player(builder: DiagramBuilder, world: World, controller,

@@ -25,6 +25,7 @@ from tt_drake.rally_aim import AIMS
 from tt_drake.rally_rules import RallyConfig
 from tt_drake.referee_rules import RefereeConfig
 from tt_drake.serves import DISTRIBUTIONS
+from tt_drake.stages import StageTimes
 from tt_drake.systems.aerodynamics import AerodynamicsConfig
 from tt_drake.systems.ball_launcher import LauncherConfig
 from tt_drake.systems.ball_oracle import PERCEPTIONS
@@ -101,13 +102,22 @@ class LearnedPlayerConfig:
 @dataclass
 class TeacherConfig:
     """The analytical player's planner settings a scenario may change
-    (:class:`tt_drake.systems.analytical_player.PlannerConfig`). ``correction_fallbacks``: a
-    correction of the committed stroke that the effort check refuses tries the planner's
-    fallbacks in turn (less of the spin compensated, the ball met off the blade's centre), as
-    a first plan does; off, the teacher keeps the committed stroke (docs/analytical_player.md,
-    "Corrections")."""
+    (:class:`tt_drake.systems.analytical_player.PlannerConfig`; docs/analytical_player.md). The
+    defaults are the stock robot's teacher, each chosen on its validation serves; the shipped
+    ``ideal_robot`` scenario turns all three off, the teacher its figures were made with.
 
-    correction_fallbacks: bool = False
+    ``correction_fallbacks``: a correction of the committed stroke that the effort check refuses
+    tries the planner's fallbacks in turn (less of the spin compensated, the ball met off the
+    blade's centre); off, the committed stroke is kept ("Corrections"). ``plan_fallbacks``: a
+    first plan the joint or effort limits refuse tries them in the same order; off, only a
+    stroke the arm cannot reach does ("Fallbacks"). ``min_hitting`` (s): the hitting stage is
+    shortened, to no less than this, where a joint's swing-back is clipped at its limit, so
+    that no joint moves back past it (:func:`tt_drake.stages.hitting_duration`); 0: it always
+    lasts 0.4 s ("Stages")."""
+
+    correction_fallbacks: bool = True
+    plan_fallbacks: bool = True
+    min_hitting: float = 0.1
 
 
 @dataclass
@@ -393,6 +403,7 @@ FIELD_RULES: dict[str, Check] = {
                              f"{SUPPLY_VOLTAGE_RANGE[0]:g}-{SUPPLY_VOLTAGE_RANGE[1]:g} V "
                              f"(got {v:g})")),
     "after_crossing": number(above=0.0, maximum=60.0),
+    "teacher.min_hitting": number(minimum=0.0, maximum=StageTimes().hitting),
 }
 
 

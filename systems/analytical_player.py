@@ -137,6 +137,9 @@ class PlannerConfig:
     # A correction the effort check refuses tries the fallbacks below (stroke_spins x
     # blade_offsets) in turn, as a first plan does; False: the first stroke the arm reaches only.
     correction_fallbacks: bool = False
+    # A first plan the joint or effort limits refuse tries the fallbacks below in turn, as a
+    # correction does with ``correction_fallbacks``; False: only the first stroke the arm reaches.
+    plan_fallbacks: bool = False
     max_branch_change: float = 0.5  # rad: a re-plan moving theta_hit further is another IK branch
     research_distance: float = 0.05  # m: a hitting point this far from the last re-aims fully
     torque_fraction: float = 0.9  # of the effort limits a plan may ask for
@@ -655,7 +658,8 @@ class AnalyticalPlayer(SeedParameter, StagePlanPlayer):
         if hit_segment is None and not moved:
             strokes = (old.stroke,)  # waiting: same stroke, but decide again whether to start
         else:
-            strokes = self._strokes(context, old, p_hit, v_hit, t_hit, spin)
+            strokes = self._strokes(context, old, p_hit, v_hit, t_hit, spin,
+                                    fallbacks=self.planner.config.plan_fallbacks)
         # The first stroke the arm can follow (or wait for) is planned; when it can follow none,
         # the plan is kept and the first stroke is recorded as the prediction acted on, so the
         # player plans again when the prediction moves.

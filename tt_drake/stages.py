@@ -177,6 +177,9 @@ class StageTimes:
     min_preparation: float = 0.25  # a swing-back from rest needs at least this long (s)
     min_replan: float = 0.05  # an ongoing swing-back may be re-planned until this close to its end
     min_follow_through: float = 0.10
+    # 0: the hitting stage always lasts ``hitting``; a duration: it is shortened, to no less
+    # than this, where a joint's swing-back is clipped at its limit (:func:`hitting_duration`).
+    min_hitting: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -226,8 +229,9 @@ def plan_stroke(now: float, state: tuple, t_hit: float, q_hit, qd_hit, q_await,
     q_hit, qd_hit = np.asarray(q_hit, dtype=float), np.asarray(qd_hit, dtype=float)
     zero = np.zeros_like(q)
     segments: list[tuple[str, Quintic]] = []
-    t_start_hit = t_hit - times.hitting
-    q_prep = limits.clip(q_hit - 0.5 * times.hitting * qd_hit)
+    t_hitting = hitting_duration(q_hit, qd_hit, limits, times)
+    t_start_hit = t_hit - t_hitting
+    q_prep = limits.clip(q_hit - 0.5 * t_hitting * qd_hit)
     if preparing:
         lead = times.min_replan
     else:
@@ -252,6 +256,26 @@ def plan_stroke(now: float, state: tuple, t_hit: float, q_hit, qd_hit, q_await,
                        zero, zero, np.asarray(q_await, dtype=float), zero, zero)
     segments.append((AWAITING, back))
     return StagePlan(segments)
+
+
+def hitting_duration(q_hit, qd_hit, limits: JointLimits, times: StageTimes) -> float:
+    """The hitting stage's duration T: ``times.hitting``, or, with ``times.min_hitting`` > 0, the
+    longest T (down to ``min_hitting``) in which no joint moves back past its swing-back posture.
+
+    The hitting segment is the quintic from rest at q_prep to (q_hit, v) with zero end
+    acceleration; in normalised time s its velocity starts as (30 d - 12 v T) s^2 / T, with
+    d = q_hit - q_prep, so it first moves backward when |d| < 0.4 |v| T. Unclipped, q_prep =
+    q_hit - (T / 2) v gives |d| = 0.5 |v| T; a joint whose swing-back is clipped at its limit
+    (less the margin) has only ``room`` = |q_hit - limit| and needs T <= 2.5 room / |v| (at
+    equality its velocity is v s^3 (4 - 3 s), never negative)."""
+    if times.min_hitting <= 0.0:
+        return times.hitting
+    room = np.where(qd_hit > 0, q_hit - (limits.lower + limits.margin),
+                    limits.upper - limits.margin - q_hit)
+    speed = np.abs(qd_hit)
+    with np.errstate(divide="ignore"):
+        allowed = np.where(speed > 1e-9, 2.5 * np.maximum(room, 0.0) / speed, np.inf)
+    return float(np.clip(allowed.min(), times.min_hitting, times.hitting))
 
 
 def return_duration(q_end, q_await, limits: JointLimits, times: StageTimes) -> float:

@@ -116,6 +116,25 @@ def test_a_strategy_plays_the_analytical_player_with_its_settings():
     assert len({s.name for s in STRATEGIES}) == len(STRATEGIES)
 
 
+@pytest.mark.parametrize("fallbacks", [True, False])
+def test_every_teacher_strategy_plays_the_scenarios_teacher(fallbacks):
+    """The bound's teacher strategies plan as the scenario's teacher does (its ``teacher``
+    settings and drives), with their own target, band, plane and spin shares on top: a teacher
+    setting that returns more serves raises the bound with it."""
+    scenario = Scenario(perception="oracle")
+    scenario.teacher.correction_fallbacks = fallbacks
+    scenario.teacher.plan_fallbacks = not fallbacks
+    scenario.teacher.min_hitting = 0.15 if fallbacks else 0.0
+    scenario.controller.drive_voltage = 40.0
+    for strategy in STRATEGIES:
+        if strategy.artefacts is not None:
+            continue
+        config = strategy.planner_config(scenario)
+        assert (config.correction_fallbacks, config.plan_fallbacks) == (fallbacks, not fallbacks)
+        assert config.times.min_hitting == scenario.teacher.min_hitting
+        assert config.drive_voltage == 40.0 and config.plane_y == strategy.plane_y
+
+
 def test_ceiling_from_reads_an_earlier_runs_bound_of_the_same_serves(tmp_path):
     """``serve --ceiling-from``: the bound of an earlier --ceiling run is reused only for the
     same serves; anything else is refused with one line."""

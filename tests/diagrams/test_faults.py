@@ -78,8 +78,8 @@ def test_a_scenario_file_is_read_on_top_of_the_scenario_its_base_names(tmp_path)
 
 def test_the_fault_tables_files_are_the_ideal_robot_with_one_fault():
     """docs/faults/*.yaml are read on top of the ideal robot (``base``; the gains file on top of
-    the model-mismatch file beside it): ideal drives and camera, the name the shipped artefacts
-    accept, and the fault each names."""
+    the model-mismatch file beside it): ideal drives, the ideal robot's teacher, the name the
+    shipped artefacts accept, and the fault each names."""
     from pathlib import Path
 
     folder = Path(__file__).resolve().parents[2] / "docs" / "faults"
@@ -89,6 +89,7 @@ def test_the_fault_tables_files_are_the_ideal_robot_with_one_fault():
                            "model_mismatch_gains"}
     for scenario in loaded.values():
         assert scenario.name == "default" and scenario.controller.drive_voltage == 0.0
+        assert scenario.teacher == ideal.teacher
     assert loaded["dropouts"].camera.dropout == 0.2 and loaded["dropouts"].camera.latency == 0.0
     assert loaded["latency"].camera.latency_frames == 1
     assert loaded["outliers"].camera.outlier == 0.05

@@ -52,16 +52,17 @@ def test_a_player_needs_a_name(name):
 
 
 def test_the_scenarios_teacher_settings_reach_the_analytical_player():
-    """``teacher.correction_fallbacks`` (off by default; on in the shipped
-    ``correction_fallbacks`` scenario) is the teacher's planner setting in the serve diagram,
-    which keeps aiming at the scenario's referee target."""
+    """``teacher`` (the stock robot's settings by default; all off in the shipped
+    ``ideal_robot`` scenario) is the teacher's planner setting in the serve diagram, which keeps
+    aiming at the scenario's referee target."""
     from tt_drake.diagrams.episodes import ServeDiagram
 
-    for name, on in (("default", False), ("correction_fallbacks", True)):
+    for name, on, min_hitting in (("default", True, 0.1), ("ideal_robot", False, 0.0)):
         scenario = load_scenario(name)
         scenario.referee.target_x = -0.2
         config = ServeDiagram(scenario, "analytical").player.planner.config
-        assert config.correction_fallbacks is on
+        assert config.correction_fallbacks is on and config.plan_fallbacks is on
+        assert config.times.min_hitting == min_hitting
         assert (config.target_x, config.target_y) == (-0.2, scenario.referee.target_y)
 
 

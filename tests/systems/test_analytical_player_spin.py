@@ -129,3 +129,38 @@ def test_strokes_begin_with_stroke_and_follow_the_fallbacks_order():
     order = [(a, b) for a in planner.config.stroke_spins for b in planner.config.blade_offsets]
     assert sorted(set(kinds), key=order.index) == list(dict.fromkeys(kinds))
     assert {s for s, _ in kinds} == set(planner.config.stroke_spins)
+
+
+class _NoPlainStroke(StrokePlanner):
+    """A planner whose limits refuse the plan of every plain stroke (all the spin compensated,
+    the ball on the blade's centre): only its fallbacks can be played."""
+
+    def schedule(self, now, current, stroke):
+        if stroke.spin_share == 1.0 and stroke.blade_offset == 0.0:
+            return None, False
+        return super().schedule(now, current, stroke)
+
+
+@pytest.mark.parametrize("fallbacks", [True, False])
+def test_a_first_plan_the_arm_refuses_falls_back_when_asked(fallbacks):
+    """With ``plan_fallbacks`` a first plan the limits refuse tries the planner's fallbacks in
+    order (:meth:`StrokePlanner.strokes`): the stroke played is the first fallback (the ball off
+    the blade's centre), and its plan reaches that stroke's (theta_hit, theta_dot_hit) at its
+    t_hit. Without, the plain stroke is only recorded and the arm never leaves its posture."""
+    planner = _NoPlainStroke(config=PlannerConfig(plan_fallbacks=fallbacks))
+    player, context, samples = run_serve(0.0, AnalyticalPlayer(planner))
+    state = player.player_state(context)
+    q = np.array([s[1][:7] for s in samples])
+    if not fallbacks:
+        assert not state.committed
+        assert (state.stroke.spin_share, state.stroke.blade_offset) == (1.0, 0.0)
+        np.testing.assert_array_equal(q, np.repeat(q[:1], len(q), axis=0))
+        return
+    assert state.committed
+    stroke = state.stroke
+    assert (stroke.spin_share, stroke.blade_offset) == (1.0, planner.config.blade_offsets[1])
+    hits = [seg for stage, seg in state.plan.segments if stage == HITTING]
+    q_end, qd_end, _ = hits[-1].evaluate(stroke.t_hit)
+    np.testing.assert_allclose(q_end, stroke.q_hit, atol=1e-9)
+    np.testing.assert_allclose(qd_end, stroke.qd_hit, atol=1e-9)
+    assert np.abs(np.diff(q, axis=0)).max() < 10.0 * 2e-3

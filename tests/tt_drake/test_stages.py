@@ -12,6 +12,7 @@ from tt_drake.stages import (
     Quintic,
     StagePlan,
     StageTimes,
+    hitting_duration,
     plan_extremes,
     plan_stroke,
 )
@@ -241,3 +242,71 @@ def test_the_return_to_awaiting_takes_the_time_the_joint_limits_ask_for():
         assert back.duration == pytest.approx(return_duration(q_end, q_await, limits, times))
         peak = plan_extremes(type(plan)([plan.segments[-1]]))["qd_max"].max()
         assert peak <= limits.velocity.max() / 1.25 + 1e-9
+
+
+def _wrist_stroke(room: float, speed: float = 8.0):
+    """A stroke whose joint 6 hits at ``room`` inside its lower limit (less the margin), moving
+    up at ``speed``: its swing-back q_hit - (T / 2) qd_hit is clipped at the limit when
+    ``room`` < T speed / 2."""
+    limits = JointLimits(np.full(7, -1.6), np.full(7, 1.6), np.full(7, 10.0))
+    q_hit, qd_hit = np.zeros(7), np.full(7, 0.5)
+    q_hit[5], qd_hit[5] = limits.lower[5] + limits.margin + room, speed
+    return limits, q_hit, qd_hit
+
+
+def _hitting_segment(plan):
+    return next(seg for stage, seg in plan.segments if stage == HITTING)
+
+
+def test_a_clipped_swing_back_makes_the_fixed_hitting_stage_move_the_joint_back_first():
+    """Why :func:`hitting_duration` exists: with room d = 0.35 rad behind the hit and v = 8
+    rad/s, d < 0.4 v T (T = 0.4 s), so the quintic from rest at the clipped q_prep first moves
+    the joint backward, past the swing-back posture toward the limit."""
+    limits, q_hit, qd_hit = _wrist_stroke(0.35)
+    state = (np.zeros(7), np.zeros(7), np.zeros(7))
+    plan = plan_stroke(0.0, state, 1.5, q_hit, qd_hit, np.zeros(7), limits, StageTimes())
+    hit = _hitting_segment(plan)
+    assert hit.duration == pytest.approx(StageTimes().hitting)
+    _, q, _, _ = hit.sample(2000.0)
+    q_prep = limits.lower[5] + limits.margin
+    assert q[:, 5].min() < q_prep - 0.05  # (30 d - 12 v T) < 0: it starts backward
+
+
+@pytest.mark.parametrize("room", [0.35, 0.6, 0.0])
+def test_the_shortened_hitting_stage_never_moves_a_joint_back(room):
+    """With ``min_hitting`` the hitting stage lasts T = 2.5 d / |v| (d: the room behind the
+    hit to the limit less the margin) when that is shorter than T_hit, at least ``min_hitting``:
+    the clipped joint's velocity v s^3 (4 - 3 s) never changes sign, it stays at or ahead of its
+    swing-back posture, and the segment still ends at (q_hit, qd_hit) at t_hit."""
+    limits, q_hit, qd_hit = _wrist_stroke(room)
+    times = StageTimes(min_hitting=0.1)
+    t_hit = 1.5
+    plan = plan_stroke(0.0, (np.zeros(7), np.zeros(7), np.zeros(7)), t_hit, q_hit, qd_hit,
+                       np.zeros(7), limits, times)
+    hit = _hitting_segment(plan)
+    expected = float(np.clip(2.5 * room / qd_hit[5], times.min_hitting, times.hitting))
+    assert hitting_duration(q_hit, qd_hit, limits, times) == pytest.approx(expected)
+    assert hit.duration == pytest.approx(expected) and hit.t_end == pytest.approx(t_hit)
+    q_end, qd_end, _ = hit.evaluate(t_hit)
+    np.testing.assert_allclose(q_end, q_hit, atol=1e-9)
+    np.testing.assert_allclose(qd_end, qd_hit, atol=1e-9)
+    _, q, qd, _ = hit.sample(2000.0)
+    if room > 0.0:
+        assert qd[:, 5].min() >= -1e-9
+        assert q[:, 5].min() >= limits.lower[5] + limits.margin - 1e-9
+    else:  # no room at all: the floor, and the plan's own checks decide
+        assert expected == times.min_hitting
+
+
+def test_an_unclipped_swing_back_keeps_the_hitting_stage():
+    """A stroke whose swing-back fits inside the limits is planned the same with and without
+    ``min_hitting``: T_hit, and the same segments."""
+    limits, q_hit, qd_hit = _wrist_stroke(2.0, speed=3.0)  # (T / 2) v = 0.6 < 2.0
+    state = (np.zeros(7), np.zeros(7), np.zeros(7))
+    fixed = plan_stroke(0.0, state, 1.5, q_hit, qd_hit, np.zeros(7), limits, StageTimes())
+    shortened = plan_stroke(0.0, state, 1.5, q_hit, qd_hit, np.zeros(7), limits,
+                            StageTimes(min_hitting=0.1))
+    assert hitting_duration(q_hit, qd_hit, limits, StageTimes(min_hitting=0.1)) == 0.4
+    for (stage_a, a), (stage_b, b) in zip(fixed.segments, shortened.segments, strict=True):
+        assert stage_a == stage_b and a.t0 == b.t0 and a.t_end == b.t_end
+        np.testing.assert_array_equal(a.evaluate(a.t_end)[0], b.evaluate(b.t_end)[0])
