@@ -171,9 +171,8 @@ def sets_field(name_or_path: str, dotted: str) -> bool:
     default scenario under them), names the field ``dotted`` (e.g. ``learned.configuration``): a
     command whose own default differs from the dataclass's applies it only to a scenario that
     leaves the field alone. The file is assumed loadable (:func:`load_scenario` first)."""
-    path = scenario_path(name_or_path)
-    while True:
-        data = _scenario_file_data(path)
+    chain = _scenario_chain(scenario_path(name_or_path))
+    for _, data in chain[:-1] if len(chain) > 1 else chain:
         found: Any = data
         for key in dotted.split("."):
             if not isinstance(found, dict) or key not in found:
@@ -181,9 +180,7 @@ def sets_field(name_or_path: str, dotted: str) -> bool:
             found = found[key]
         else:
             return True
-        if data.get(BASE_KEY) is None:
-            return False
-        path = _base_path(data[BASE_KEY], path)
+    return False
 
 
 #: The key of a scenario file naming the scenario it is read on top of (a name or a path, as
@@ -199,37 +196,41 @@ def load_scenario(name_or_path: str = "default") -> Scenario:
     scenario (whose fields equal the dataclasses' defaults:
     tests/diagrams/test_scenario_defaults.py). The fields a file names change; every other one is
     its base's."""
-    scenario = _load_scenario_file(scenario_path(name_or_path), ())
-    validate(scenario, scenario_path(name_or_path))
+    path = scenario_path(name_or_path)
+    scenario = Scenario()
+    for file, data in reversed(_scenario_chain(path)):
+        try:
+            scenario = yaml_load_typed(schema=Scenario, data=yaml_dump(data) if data else "{}",
+                                       defaults=scenario)
+        except Exception as err:  # yaml and schema errors come as several exception types
+            message = " ".join(str(err).split())
+            raise ScenarioError(f"invalid scenario {file}: {message}") from None
+    validate(scenario, path)
     resolve_model_paths(scenario)
     return scenario
 
 
-def _load_scenario_file(path: Path, chain: tuple) -> Scenario:
-    """The scenario of the file at ``path`` on top of its base (:func:`load_scenario`);
-    ``chain``: the files that named it as their base, outermost first."""
-    if not path.is_file():
-        raise ScenarioError(f"scenario file not found: {path}"
-                            + (f" (the base of {chain[-1]})" if chain else ""))
-    if path.resolve() in chain:
-        loop = " -> ".join(str(p) for p in (*chain, path.resolve()))
-        raise ScenarioError(f"scenario files name each other as base: {loop}")
-    data = _scenario_file_data(path)
-    base_name = data.pop(BASE_KEY, None)
-    if path.resolve() == scenario_path("default").resolve():
-        if base_name is not None:
-            raise ScenarioError(f"invalid scenario {path}: the default scenario has no base")
-        base = Scenario()
-    elif base_name is None:
-        base = _load_scenario_file(scenario_path("default"), ())
-    else:
-        base = _load_scenario_file(_base_path(base_name, path), (*chain, path.resolve()))
-    try:
-        return yaml_load_typed(schema=Scenario, data=yaml_dump(data) if data else "{}",
-                               defaults=base)
-    except Exception as err:  # yaml and schema errors come as several exception types
-        message = " ".join(str(err).split())
-        raise ScenarioError(f"invalid scenario {path}: {message}") from None
+def _scenario_chain(path: Path) -> list[tuple[Path, dict]]:
+    """The file at ``path`` and the files it is read on top of, outermost first, down to
+    ``models/default.yaml`` (always last), each with the fields it names (its ``base`` key
+    taken out)."""
+    default = scenario_path("default").resolve()
+    chain: list[tuple[Path, dict]] = []
+    while True:
+        if not path.is_file():
+            raise ScenarioError(f"scenario file not found: {path}"
+                                + (f" (the base of {chain[-1][0]})" if chain else ""))
+        if any(path.resolve() == file.resolve() for file, _ in chain):
+            loop = " -> ".join(str(file) for file, _ in (*chain, (path, None)))
+            raise ScenarioError(f"scenario files name each other as base: {loop}")
+        data = _scenario_file_data(path)
+        base = data.pop(BASE_KEY, None)
+        chain.append((path, data))
+        if path.resolve() == default:
+            if base is not None:
+                raise ScenarioError(f"invalid scenario {path}: the default scenario has no base")
+            return chain
+        path = scenario_path("default") if base is None else _base_path(base, path)
 
 
 def _scenario_file_data(path: Path) -> dict:

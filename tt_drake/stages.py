@@ -270,12 +270,8 @@ def hitting_duration(q_hit, qd_hit, limits: JointLimits, times: StageTimes) -> f
     equality its velocity is v s^3 (4 - 3 s), never negative)."""
     if times.min_hitting <= 0.0:
         return times.hitting
-    room = np.where(qd_hit > 0, q_hit - (limits.lower + limits.margin),
-                    limits.upper - limits.margin - q_hit)
-    speed = np.abs(qd_hit)
-    with np.errstate(divide="ignore"):
-        allowed = np.where(speed > 1e-9, 2.5 * np.maximum(room, 0.0) / speed, np.inf)
-    return float(np.clip(allowed.min(), times.min_hitting, times.hitting))
+    return _longest_within_room(q_hit, -np.asarray(qd_hit, dtype=float), limits, 2.5,
+                                times.min_hitting, times.hitting)
 
 
 def return_duration(q_end, q_await, limits: JointLimits, times: StageTimes) -> float:
@@ -288,12 +284,23 @@ def return_duration(q_end, q_await, limits: JointLimits, times: StageTimes) -> f
 def follow_through_time(q_hit, qd_hit, limits: JointLimits, times: StageTimes) -> float:
     """The longest follow-through (up to ``times.follow_through``) in which every joint, moving
     (T / 2) qd on a rest-ending quintic, stays inside its limits (less the margin)."""
-    room = np.where(qd_hit > 0, limits.upper - limits.margin - q_hit,
-                    q_hit - (limits.lower + limits.margin))
-    speed = np.abs(qd_hit)
+    return _longest_within_room(q_hit, qd_hit, limits, 2.0, times.min_follow_through,
+                                times.follow_through)
+
+
+def _longest_within_room(q, direction, limits: JointLimits, per_speed: float, shortest: float,
+                         longest: float) -> float:
+    """min over joints of ``per_speed`` room_j / |direction_j|, clipped to [shortest, longest]:
+    room_j is how far joint j may go from ``q`` in the sign of ``direction_j`` before its limit
+    (less the margin), none for a joint that does not move. A rest-ending quintic from (q, v)
+    in T covers (T / 2) v (``per_speed`` 2); a hitting quintic needs T <= 2.5 room / |v| behind
+    the hit (:func:`hitting_duration`, ``direction`` = -v)."""
+    room = np.where(direction > 0, limits.upper - limits.margin - q,
+                    q - (limits.lower + limits.margin))
+    speed = np.abs(direction)
     with np.errstate(divide="ignore"):
-        allowed = np.where(speed > 1e-9, 2.0 * np.maximum(room, 0.0) / speed, np.inf)
-    return float(np.clip(allowed.min(), times.min_follow_through, times.follow_through))
+        allowed = np.where(speed > 1e-9, per_speed * np.maximum(room, 0.0) / speed, np.inf)
+    return float(np.clip(allowed.min(), shortest, longest))
 
 
 def plan_extremes(plan: StagePlan, rate: float = 500.0) -> dict:
