@@ -96,6 +96,21 @@ def test_playable_is_the_reach_box():
     assert "playable_z" in " ".join(CompetitiveAim(playable_z=[1.2, 0.7]).problems())
 
 
+def test_the_stock_robots_reach_leaves_out_a_short_ball_met_falling_through_the_band_floor():
+    # A short backspin return (it bounces ~0.56 m past the net on the opponent's side) that
+    # crosses the opponent's hitting plane too low: the opponent's rule meets it behind the
+    # table where it falls through the band's floor, z_min = 0.65 m, falling at > 3 m/s.
+    band = HittingBand()
+    point = opponent_hitting_point(BallModel(), [-0.13, -1.81, 0.95], [0.27, 3.69, 3.94],
+                                   [-26.5, 3.2, 10.5], PLANES.hitting_y, band)
+    assert point.position[2] == pytest.approx(band.z_min, abs=1e-9)
+    assert point.position[1] > PLANES.hitting_y and point.velocity[2] < -3.0
+    assert len(point.bounces) == 1 and -0.7 < point.bounces[0].position[1] < -0.4
+    # The stock robot's box (the default) leaves it out; the ideal robot's keeps it.
+    assert not CompetitiveAim().playable(point)
+    assert CompetitiveAim(playable_z=[0.65, 1.15]).playable(point)
+
+
 def test_against_a_learned_opponent_the_reach_is_the_learned_players():
     c = CompetitiveAim(playable_z=[0.65, 1.15], learned_playable_z=[0.72, 1.1])
     assert c.against(True).playable_z == [0.72, 1.1]
