@@ -258,7 +258,8 @@ def add_learned_player(builder: DiagramBuilder, world: World, controller, scenar
         learned.get("library"), learned.get("stages"), arm=HittingIK(),
         setpoint_lead=SETPOINT_LEAD, setpoint_period=SERVO_PERIOD,
         stimulus=None if crkr is None else crkr.stimulus,
-        config=momp_config(scenario.learned.moving_goal, scenario.controller.drive_voltage)))
+        config=momp_config(scenario.learned.moving_goal, scenario.controller.drive_voltage,
+                           scenario.learned.correction_fallback)))
     # The measured arm: the player holds when the arm no longer follows its plan.
     builder.Connect(world.plant.get_state_output_port(world.robot),
                     player.GetInputPort("arm_state"))

@@ -97,6 +97,10 @@ class LearnedPlayerConfig:
     # aim and racket law with ``spin_hit``: systems/hitting_configuration.py). Always on with the
     # moving goal; this turns it on without (a rally's learned players, docs/rally.md).
     spin_aware: bool = False
+    # With the moving goal: a move of the goal the limits refuse is made as the teacher's
+    # quintic correction (``MoMPConfig.correction_fallback``; docs/learned_player.md). On for
+    # the stock robot; ``ideal_robot`` turns it off.
+    correction_fallback: bool = True
 
 
 @dataclass

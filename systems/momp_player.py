@@ -150,17 +150,27 @@ class MoMPConfig:
     # error. None: off.
     hold_error: float | None = 0.6
     hold_speed: float = 1.5
+    # A move of the goal that the limits refuse (every goal velocity tried) is made as the
+    # teacher's correction instead: the quintic stages from the current desired state to the
+    # new hitting configuration (:func:`tt_drake.stages.plan_stroke`), if those fit the limits
+    # (``MoMPStroke.fallback``). The robot-side bounce shows a spinning ball's spin, and the
+    # prediction can then move by 10-30 cm with 0.2-0.3 s to go, further than the rolled-out
+    # hitting DMP's moved goal can follow within the stock drives. False: the stroke keeps its
+    # goal.
+    correction_fallback: bool = False
 
 
-def momp_config(moving_goal: bool = False, drive_voltage: float = 0.0) -> MoMPConfig:
+def momp_config(moving_goal: bool = False, drive_voltage: float = 0.0,
+                correction_fallback: bool = False) -> MoMPConfig:
     """The player of the paper profile, or with the hitting DMP's moving goal (the hard
     protocol's: cut-off :data:`MOVING_GOAL_CUTOFF`, effort budget
-    :data:`MOVING_GOAL_TORQUE_FRACTION`); its effort check knows drives of ``drive_voltage``
-    (0: ideal)."""
+    :data:`MOVING_GOAL_TORQUE_FRACTION`, and ``correction_fallback`` for a refused move); its
+    effort check knows drives of ``drive_voltage`` (0: ideal)."""
     if not moving_goal:
         return MoMPConfig(drive_voltage=drive_voltage)
     return MoMPConfig(goal_cutoff=MOVING_GOAL_CUTOFF,
-                      torque_fraction=MOVING_GOAL_TORQUE_FRACTION, drive_voltage=drive_voltage)
+                      torque_fraction=MOVING_GOAL_TORQUE_FRACTION, drive_voltage=drive_voltage,
+                      correction_fallback=correction_fallback)
 
 
 class _State(Immutable):
@@ -377,15 +387,42 @@ class MoMPTrajectorySource(StagePlanPlayer):
                                                  self.limits, self.config.times)
             except ValueError:
                 continue
-            ahead = StagePlan([(s, seg) for s, seg in new.segments if seg.t0 >= now])
-            if within_limits(ahead, self.limits) and self._within_effort(new, now):
+            if self._fits_ahead(new, now):
                 stroke = MoMPStroke(x, t_hit, np.array(q_hit), qd_goal, idx, nu,
                                     old.stroke.replans + 1, False, spinless=spinless)
                 state.get_mutable_abstract_state(self._index).set_value(
                     _State(new, stroke, False, seen, spinless_move=spinless))
                 return None
+        for qd_goal, spinless in (tries if self.config.correction_fallback else ()):
+            corrected = self._quintic_correction(now, old.plan, t_hit, q_hit, qd_goal)
+            if corrected is not None:
+                idx, nu = self.library.active(x)  # the mixture that failed (MoMPStroke)
+                stroke = MoMPStroke(x, t_hit, np.array(q_hit), qd_goal, idx, nu,
+                                    old.stroke.replans + 1, True, spinless=spinless)
+                state.get_mutable_abstract_state(self._index).set_value(
+                    _State(corrected, stroke, False, seen, spinless_move=spinless))
+                return None
         state.get_mutable_abstract_state(self._index).set_value(refused)
         return None
+
+    def _fits_ahead(self, plan: StagePlan, now: float) -> bool:
+        """Whether the part of ``plan`` from ``now`` on is inside the joint limits and (with
+        an ``arm``) the effort budget."""
+        ahead = StagePlan([(s, seg) for s, seg in plan.segments if seg.t0 >= now])
+        return within_limits(ahead, self.limits) and self._within_effort(plan, now)
+
+    def _quintic_correction(self, now: float, plan: StagePlan, t_hit: float, q_hit,
+                            qd_hit) -> StagePlan | None:
+        """``plan`` up to ``now``, then the teacher's quintic stages from its desired state
+        there to (``q_hit``, ``qd_hit``) at ``t_hit`` (the analytical player's correction); None
+        if they leave the limits (``correction_fallback``)."""
+        try:
+            new = plan_stroke(now, plan.evaluate(now), t_hit, q_hit, qd_hit, self.q_await,
+                              self.limits, self.config.times, preparing=True, allow_wait=False)
+        except ValueError:
+            return None
+        corrected = StagePlan(plan.truncated(now).segments + new.segments)
+        return corrected if self._fits_ahead(corrected, now) else None
 
     def _spinless_goal(self, context, qd_hit) -> np.ndarray | None:
         """The configuration's ``theta_dot_hit_spinless`` when that input is connected and

@@ -153,3 +153,45 @@ def test_a_first_plan_outside_the_limits_takes_the_spinless_velocities_when_conn
             q, qd, _ = player.player_state(context).plan.evaluate(T_HIT)
             np.testing.assert_allclose(q, Q_HIT, atol=1e-3)
             np.testing.assert_allclose(qd, spinless, atol=2e-2)
+
+
+def _refuse_every_dmp_move(*args, **kwargs):
+    raise ValueError("the moved hitting DMP leaves the limits")
+
+
+def test_a_refused_move_is_made_as_the_teachers_correction_when_asked(monkeypatch):
+    """A move the hitting DMP cannot make (every rolled-out move refused) is, with
+    ``correction_fallback``, made by the teacher's quintic stages from the current desired
+    state: continuous in position, velocity and acceleration at the move, arriving exactly at
+    the new (theta_hit, theta_dot_hit) at the new t_hit; the stroke records the fallback and
+    the mixture that failed. A goal the quintic cannot reach within the limits either (12 rad/s
+    on joint 1 against 10) is refused, and without the setting every refused move keeps the
+    goal."""
+    monkeypatch.setattr("tt_drake.systems.momp_player.move_hitting_goal",
+                        _refuse_every_dmp_move)
+    new_q, new_qd, new_t = Q_HIT + 0.03, QD_HIT - 0.2, T_HIT + 0.01
+    too_fast = QD_HIT.copy()
+    too_fast[0] = 12.0
+    for fallback, qd_goal in ((False, new_qd), (True, too_fast), (True, new_qd)):
+        player, context, _, _, stimuli = _stroke_under_way(
+            MoMPConfig(goal_cutoff=0.08, correction_fallback=fallback))
+        before = player.player_state(context).plan
+        fix_inputs(player, context, stimuli[0] + 0.02, new_t, new_q, qd_goal)
+        now = context.get_time() + 0.004
+        context.SetTime(now)
+        player.ExecuteForcedEvents(context)
+        state = player.player_state(context)
+        if not (fallback and qd_goal is new_qd):
+            assert state.refused is not None and state.stroke.replans == 1
+            assert not state.stroke.fallback
+            np.testing.assert_allclose(state.plan.evaluate(T_HIT)[0], Q_HIT, atol=1e-3)
+            continue
+        assert state.refused is None and state.stroke.replans == 2 and state.stroke.fallback
+        idx, nu = player.library.active(state.stroke.stimulus)  # the mixture that failed
+        np.testing.assert_array_equal(state.stroke.primitives, idx)
+        for a, b in zip(before.evaluate(now), state.plan.evaluate(now), strict=True):
+            np.testing.assert_allclose(a, b, atol=1e-9)
+        q, qd, _ = state.plan.evaluate(new_t)
+        np.testing.assert_allclose(q, new_q, atol=1e-9)
+        np.testing.assert_allclose(qd, new_qd, atol=1e-9)
+        assert state.plan.stage_at(new_t - 1e-3) == HITTING
