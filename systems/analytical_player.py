@@ -86,6 +86,7 @@ from tt_drake.stages import (
     Quintic,
     StagePlan,
     StageTimes,
+    correction_stages,
     plan_extremes,
     plan_stroke,
     within_effort,
@@ -435,16 +436,11 @@ class StrokePlanner:
         state to the corrected stroke's (theta_hit, theta_dot_hit) at its t_hit, then the
         follow-through and the return; None if that is not feasible for the arm (keep the
         committed plan)."""
-        state = current.evaluate(now)
-        try:
-            plan = plan_stroke(now, state, stroke.t_hit, stroke.q_hit, stroke.qd_hit,
-                               self.q_await, self.limits, self.config.times, preparing=True,
-                               allow_wait=False)
-        except ValueError:
-            return None
+        plan = correction_stages(now, current, stroke.t_hit, stroke.q_hit, stroke.qd_hit,
+                                 self.q_await, self.limits, self.config.times)
         if plan is None or not self.feasible(plan, now):
             return None
-        return StagePlan(current.truncated(now).segments + plan.segments)
+        return current.continued(now, plan)
 
     def feasible(self, plan: StagePlan, now: float = -np.inf) -> bool:
         """Within the joint position, velocity and acceleration limits everywhere (sampled at
@@ -484,7 +480,7 @@ class StrokePlanner:
             plan = stroke_from(now, allow_wait=False)
         if not self.feasible(plan, now):
             return None, False  # not feasible for the arm: keep the current plan
-        return StagePlan(current.truncated(now).segments + plan.segments), False
+        return current.continued(now, plan), False
 
 
 class StrokeAims:

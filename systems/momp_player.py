@@ -81,6 +81,7 @@ from tt_drake.stages import (
     Quintic,
     StagePlan,
     StageTimes,
+    correction_stages,
     plan_stroke,
     within_effort,
 )
@@ -152,7 +153,7 @@ class MoMPConfig:
     hold_speed: float = 1.5
     # A move of the goal that the limits refuse (every goal velocity tried) is made as the
     # teacher's correction instead: the quintic stages from the current desired state to the
-    # new hitting configuration (:func:`tt_drake.stages.plan_stroke`), if those fit the limits
+    # new hitting configuration (:func:`tt_drake.stages.correction_stages`), if those fit the limits
     # (``MoMPStroke.fallback``). The robot-side bounce shows a spinning ball's spin, and the
     # prediction can then move by 10-30 cm with 0.2-0.3 s to go, further than the rolled-out
     # hitting DMP's moved goal can follow within the stock drives. False: the stroke keeps its
@@ -336,8 +337,7 @@ class MoMPTrajectorySource(StagePlanPlayer):
         replans = 1 if old.stroke is None else old.stroke.replans + 1
         stroke = MoMPStroke(x, t_hit, np.array(q_hit), np.array(qd_hit), idx, nu, replans,
                             fallback, spinless=spinless)
-        abstract.set_value(_State(StagePlan(plan.truncated(now).segments + new.segments), stroke,
-                                  False, seen))
+        abstract.set_value(_State(plan.continued(now, new), stroke, False, seen))
 
     def _move_goal(self, context, state, old: _State, now: float):
         """During the hitting stage, before the cut-off: a prediction that differs from the
@@ -393,7 +393,8 @@ class MoMPTrajectorySource(StagePlanPlayer):
                 state.get_mutable_abstract_state(self._index).set_value(
                     _State(new, stroke, False, seen, spinless_move=spinless))
                 return None
-        for qd_goal, spinless in (tries if self.config.correction_fallback else ()):
+        fallbacks = tries if self.config.correction_fallback else []
+        for qd_goal, spinless in fallbacks:
             corrected = self._quintic_correction(now, old.plan, t_hit, q_hit, qd_goal)
             if corrected is not None:
                 idx, nu = self.library.active(x)  # the mixture that failed (MoMPStroke)
@@ -416,12 +417,11 @@ class MoMPTrajectorySource(StagePlanPlayer):
         """``plan`` up to ``now``, then the teacher's quintic stages from its desired state
         there to (``q_hit``, ``qd_hit``) at ``t_hit`` (the analytical player's correction); None
         if they leave the limits (``correction_fallback``)."""
-        try:
-            new = plan_stroke(now, plan.evaluate(now), t_hit, q_hit, qd_hit, self.q_await,
-                              self.limits, self.config.times, preparing=True, allow_wait=False)
-        except ValueError:
+        new = correction_stages(now, plan, t_hit, q_hit, qd_hit, self.q_await, self.limits,
+                                self.config.times)
+        if new is None:
             return None
-        corrected = StagePlan(plan.truncated(now).segments + new.segments)
+        corrected = plan.continued(now, new)
         return corrected if self._fits_ahead(corrected, now) else None
 
     def _spinless_goal(self, context, qd_hit) -> np.ndarray | None:

@@ -166,6 +166,11 @@ class StagePlan:
         way cut to end at ``t`` (to be followed by a re-plan from the state at ``t``)."""
         return StagePlan([(s, q.cut(t)) for s, q in self.segments if q.t0 < t])
 
+    def continued(self, t: float, plan: StagePlan) -> StagePlan:
+        """This plan up to ``t`` (:meth:`truncated`), then ``plan`` (a re-plan from the
+        state at ``t``)."""
+        return StagePlan(self.truncated(t).segments + plan.segments)
+
 
 @dataclass(frozen=True)
 class StageTimes:
@@ -256,6 +261,19 @@ def plan_stroke(now: float, state: tuple, t_hit: float, q_hit, qd_hit, q_await,
                        zero, zero, np.asarray(q_await, dtype=float), zero, zero)
     segments.append((AWAITING, back))
     return StagePlan(segments)
+
+
+def correction_stages(now: float, current: StagePlan, t_hit: float, q_hit, qd_hit, q_await,
+                      limits: JointLimits, times: StageTimes) -> StagePlan | None:
+    """The stages of a correction made at ``now``: :func:`plan_stroke` from ``current``'s
+    desired state there to (``q_hit``, ``qd_hit``) at ``t_hit``, as a swing under way
+    (``preparing``) that does not wait; None if there is no time left to hit. The caller checks
+    them against its limits and continues ``current`` with them (:meth:`StagePlan.continued`)."""
+    try:
+        return plan_stroke(now, current.evaluate(now), t_hit, q_hit, qd_hit, q_await, limits,
+                           times, preparing=True, allow_wait=False)
+    except ValueError:
+        return None
 
 
 def hitting_duration(q_hit, qd_hit, limits: JointLimits, times: StageTimes) -> float:

@@ -12,6 +12,7 @@ from tt_drake.stages import (
     Quintic,
     StagePlan,
     StageTimes,
+    correction_stages,
     hitting_duration,
     plan_extremes,
     plan_stroke,
@@ -310,3 +311,28 @@ def test_an_unclipped_swing_back_keeps_the_hitting_stage():
     for (stage_a, a), (stage_b, b) in zip(fixed.segments, shortened.segments, strict=True):
         assert stage_a == stage_b and a.t0 == b.t0 and a.t_end == b.t_end
         np.testing.assert_array_equal(a.evaluate(a.t_end)[0], b.evaluate(b.t_end)[0])
+
+
+def test_a_correction_continues_the_plan_c2_and_arrives_at_the_new_goal():
+    """correction_stages re-plans from the plan's desired state at ``now`` (a swing under way:
+    no waiting) to the new (q_hit, qd_hit) at t_hit; the plan continued with it keeps its past
+    bit for bit and is C2 at ``now``. With no time left there is no correction."""
+    limits = JointLimits(lower=-2.5 * np.ones(7), upper=2.5 * np.ones(7),
+                         velocity=10 * np.ones(7), acceleration=200 * np.ones(7))
+    q_hit, qd_hit = Q_AWAIT + 0.3, np.array([2.0, -1.0, 0.5, 3.0, -2.0, 1.0, 0.0])
+    plan = plan_stroke(0.0, (Q_AWAIT, np.zeros(7), np.zeros(7)), 1.0, q_hit, qd_hit, Q_AWAIT,
+                       limits)
+    now, q_new, qd_new, t_new = 0.7, q_hit + 0.02, qd_hit - 0.1, 1.005
+    stages = correction_stages(now, plan, t_new, q_new, qd_new, Q_AWAIT, limits, StageTimes())
+    corrected = plan.continued(now, stages)
+    for t in np.linspace(0.0, now - 1e-3, 20):
+        for a, b in zip(plan.evaluate(t), corrected.evaluate(t), strict=True):
+            np.testing.assert_array_equal(a, b)
+    for a, b in zip(plan.evaluate(now), corrected.evaluate(now), strict=True):
+        np.testing.assert_allclose(a, b, atol=1e-9)
+    q, qd, _ = corrected.evaluate(t_new)
+    np.testing.assert_allclose(q, q_new, atol=1e-9)
+    np.testing.assert_allclose(qd, qd_new, atol=1e-9)
+    assert corrected.stage_at(t_new - 1e-3) == HITTING
+    assert correction_stages(1.0, plan, 1.0005, q_new, qd_new, Q_AWAIT, limits,
+                             StageTimes()) is None
