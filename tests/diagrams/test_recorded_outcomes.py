@@ -4,7 +4,13 @@ The records (tests/data/recorded_outcomes.json, written by tests/data/make_recor
 hold each episode's launch, the referee's verdict, the landing and hit time as exact floats and
 when the episode ended: any change to the physics, the seeds, the players or how a diagram is
 built and reset that moves a landing by one bit fails here.
+
+They were made with OpenBLAS's Haswell kernels, which the package pins on every x86-64 machine
+(tt_drake/blas.py): with the kernels OpenBLAS picks for an Intel AVX-512 CPU the same serves land
+~1e-10 m elsewhere.
 """
+
+import platform
 
 import pytest
 
@@ -18,8 +24,18 @@ from tests.data.make_recorded_outcomes import (
     rally_case_key,
     serve_case_key,
 )
+from tt_drake.blas import BLAS_CORE_TYPE, blas_kernels
 
 RECORDED = load_recorded()
+
+
+@pytest.mark.skipif(platform.machine().lower() not in ("x86_64", "amd64"),
+                    reason="OpenBLAS kernel families are pinned on x86-64 only")
+def test_the_process_runs_the_blas_kernels_the_records_were_made_with():
+    import numpy as np
+
+    np.linalg.solve(np.eye(3), np.ones(3))  # numpy's OpenBLAS is loaded
+    assert blas_kernels() and set(blas_kernels()) == {BLAS_CORE_TYPE}
 
 
 def test_the_records_cover_every_case_and_pin_returns_and_faults():
