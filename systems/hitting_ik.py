@@ -166,6 +166,7 @@ class HittingIK:
         self.context = self.plant.CreateDefaultContext()
         self._frame_c = self.plant.GetFrameByName(RACKET_CENTER_FRAME)
         self._world = self.plant.world_frame()
+        self._forces = MultibodyForces(self.plant)  # the inverse dynamics' applied forces
         self.comfort = np.asarray(comfort, dtype=float).reshape(NUM_JOINTS)
         self.weights = (1.0 / JOINT_HALF_RANGE**2 if weights is None
                         else np.asarray(weights, dtype=float).reshape(NUM_JOINTS))
@@ -295,10 +296,7 @@ class HittingIK:
         field, so -tau_g(q)) go into the applied forces before ``CalcInverseDynamics``, which
         adds none by itself. At rest the result is -tau_g(q), the torque that holds the arm up
         (at HITTING_COMFORT 23.9 N m on the shoulder, 0.52 N m on the wrist's 3 N m joint 5)."""
-        self.plant.SetPositions(self.context, np.asarray(q, dtype=float))
-        self.plant.SetVelocities(self.context, np.asarray(qdot, dtype=float))
-        if not hasattr(self, "_forces"):
-            self._forces = MultibodyForces(self.plant)
+        self.plant.SetPositionsAndVelocities(self.context, np.concatenate((q, qdot)))
         self.plant.CalcForceElementsContribution(self.context, self._forces)
         return self.plant.CalcInverseDynamics(self.context, np.asarray(qddot, dtype=float),
                                               self._forces)

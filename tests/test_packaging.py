@@ -171,6 +171,11 @@ def test_the_installed_wheel_serves_like_the_checkout_from_another_folder(wheel_
     assert installed["scenario"] == here["scenario"]
     assert installed["scenario"]["learned"]["library"] == "tt_drake/models/learned/library.npz"
     assert installed["git_commit"] is None  # an installed wheel is no git checkout
+    # The compiled flight kernel cached its machine code beside the installed module (where
+    # the install cannot be written it falls back to the user's cache, then to memory:
+    # tests/tt_drake/test_flight_kernel.py).
+    cached = list(venv.glob("lib/python*/site-packages/tt_drake/__pycache__/flight_kernel*.nbi"))
+    assert cached, "the installed flight kernel wrote no numba cache index"
 
     # The real serve states ship in the wheel too.
     real = _run(venv, "serve", "--distribution", "real", "--serves", "1", "--quiet",

@@ -26,6 +26,7 @@ from functools import lru_cache
 import numpy as np
 
 from tt_drake.constants import BALL, CONTACT, GRAVITY, NET, TABLE
+from tt_drake.flight_kernel import rk4_flight
 
 
 @lru_cache(maxsize=1)
@@ -184,53 +185,24 @@ class BallModel:
         )
 
     def flight_step(self, pos: tuple, vel: tuple, w: tuple, h: float) -> tuple[tuple, tuple]:
-        """One classical Runge-Kutta (RK4) step of the flight ODE, no contact.
-
-        With a(v) = g - k |v| v + C_L (omega x v) (:meth:`acceleration`, inlined here: this is the
-        model's innermost loop) and the stage velocities
+        """One classical Runge-Kutta (RK4) step of the flight ODE, no contact: with
+        a(v) = g - k |v| v + C_L (omega x v) (:meth:`acceleration`) and the stage velocities
 
             v1 = v,  v2 = v + h/2 a(v1),  v3 = v + h/2 a(v2),  v4 = v + h a(v3),
 
-        the step is p+ = p + h/6 (v1 + 2 v2 + 2 v3 + v4), v+ = v + h/6 (a1 + 2 a2 + 2 a3 + a4).
+        p+ = p + h/6 (v1 + 2 v2 + 2 v3 + v4), v+ = v + h/6 (a1 + 2 a2 + 2 a3 + a4). Compiled
+        (:func:`tt_drake.flight_kernel.rk4_flight`): this is every prediction's innermost loop.
         """
+        return self.fly(pos, vel, w, h, 1)
+
+    def fly(self, pos: tuple, vel: tuple, w: tuple, h: float, steps: int
+            ) -> tuple[tuple, tuple]:
+        """(p, v) after ``steps`` :meth:`flight_step` steps of ``h`` (the same numbers), in one
+        compiled call."""
         p = self.params
-        k, c, g = p.drag_k, p.magnus_cl, p.gravity
-        wx, wy, wz = w
-        px, py, pz = pos
-        vx, vy, vz = vel
-        hh = 0.5 * h
-        # Stage 1: a1 = a(v).
-        kd = k * math.sqrt(vx * vx + vy * vy + vz * vz)
-        ax1 = -kd * vx + c * (wy * vz - wz * vy)
-        ay1 = -kd * vy + c * (wz * vx - wx * vz)
-        az1 = -g - kd * vz + c * (wx * vy - wy * vx)
-        # Stage 2: v2 = v + h/2 a1, a2 = a(v2).
-        x2, y2, z2 = vx + hh * ax1, vy + hh * ay1, vz + hh * az1
-        kd = k * math.sqrt(x2 * x2 + y2 * y2 + z2 * z2)
-        ax2 = -kd * x2 + c * (wy * z2 - wz * y2)
-        ay2 = -kd * y2 + c * (wz * x2 - wx * z2)
-        az2 = -g - kd * z2 + c * (wx * y2 - wy * x2)
-        # Stage 3: v3 = v + h/2 a2, a3 = a(v3).
-        x3, y3, z3 = vx + hh * ax2, vy + hh * ay2, vz + hh * az2
-        kd = k * math.sqrt(x3 * x3 + y3 * y3 + z3 * z3)
-        ax3 = -kd * x3 + c * (wy * z3 - wz * y3)
-        ay3 = -kd * y3 + c * (wz * x3 - wx * z3)
-        az3 = -g - kd * z3 + c * (wx * y3 - wy * x3)
-        # Stage 4: v4 = v + h a3, a4 = a(v4).
-        x4, y4, z4 = vx + h * ax3, vy + h * ay3, vz + h * az3
-        kd = k * math.sqrt(x4 * x4 + y4 * y4 + z4 * z4)
-        ax4 = -kd * x4 + c * (wy * z4 - wz * y4)
-        ay4 = -kd * y4 + c * (wz * x4 - wx * z4)
-        az4 = -g - kd * z4 + c * (wx * y4 - wy * x4)
-        h6 = h / 6.0
-        return (
-            (px + h6 * (vx + 2 * x2 + 2 * x3 + x4),
-             py + h6 * (vy + 2 * y2 + 2 * y3 + y4),
-             pz + h6 * (vz + 2 * z2 + 2 * z3 + z4)),
-            (vx + h6 * (ax1 + 2 * ax2 + 2 * ax3 + ax4),
-             vy + h6 * (ay1 + 2 * ay2 + 2 * ay3 + ay4),
-             vz + h6 * (az1 + 2 * az2 + 2 * az3 + az4)),
-        )
+        r = rk4_flight(pos[0], pos[1], pos[2], vel[0], vel[1], vel[2], w[0], w[1], w[2],
+                       p.drag_k, p.magnus_cl, p.gravity, h, steps)
+        return r[:3], r[3:]
 
     def rk4_stages(self, pos: tuple, vel: tuple, w: tuple, h: float
                    ) -> tuple[tuple, tuple, tuple]:

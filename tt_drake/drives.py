@@ -99,7 +99,8 @@ class EffortBudget:
     """What a plan may ask of the actuators: ``fraction`` of the effort limits, and with
     ``drive`` ``supply_fraction`` (default ``fraction``) of its supply
     (:meth:`DriveEnvelope.bounds`). ``bounds(q_dot)`` is what
-    :func:`tt_drake.stages.within_effort` checks each sample against."""
+    :func:`tt_drake.stages.within_effort` checks each sample against; elementwise, so one call
+    gives the bounds of many samples' speeds (K, 7) at once."""
 
     fraction: float
     drive: DriveEnvelope | None = None

@@ -124,12 +124,7 @@ def _fly(model: BallModel, p, v, duration: float, spin=(0.0, 0.0, 0.0),
          h: float = 0.02) -> tuple:
     """Ball position after ``duration`` seconds of free flight (no table), RK4 with step ~h."""
     steps = max(1, int(math.ceil(duration / h)))
-    dt = duration / steps
-    pos, vel = tuple(p), tuple(v)
-    w = tuple(float(c) for c in spin)
-    for _ in range(steps):
-        pos, vel = model.flight_step(pos, vel, w, dt)
-    return pos, vel
+    return model.fly(tuple(p), tuple(v), tuple(spin), duration / steps, steps)
 
 
 def solve_outgoing_velocity(p_hit, target, flight_time: float, model: BallModel | None = None,

@@ -342,10 +342,12 @@ def within_effort(plan: StagePlan, torques, budget, now: float = -np.inf,
     must be the plan's whole feed-forward torque, M q_ddot + C q_dot - tau_g
     (:meth:`tt_drake.systems.hitting_ik.HittingIK.torques`, gravity included). ``budget``: per
     joint, ``|tau| <= budget``; or an object whose ``bounds(q_dot)`` gives the (lower, upper)
-    torques at a joint speed (:class:`tt_drake.drives.EffortBudget`, the drives' envelope).
+    torques at joint speeds ``q_dot`` elementwise, for one sample (n_dof,) or many (K, n_dof)
+    (:class:`tt_drake.drives.EffortBudget`, the drives' envelope).
 
-    Each segment's samples are evaluated at once (:func:`evaluate_segment_many`); the inverse
-    dynamics stays one call per sample and the check stops at the first sample over budget."""
+    Each segment's samples and their bounds are evaluated at once (:func:`evaluate_segment_many`,
+    one ``bounds`` call on the (K, n_dof) speeds); the inverse dynamics stays one call per sample
+    and the check stops at the first sample over budget."""
     bounds = getattr(budget, "bounds", None)
     if bounds is None:
         limit = np.asarray(budget, dtype=float)
@@ -359,9 +361,9 @@ def within_effort(plan: StagePlan, torques, budget, now: float = -np.inf,
         if times.size == 0:
             continue
         q, v, a = evaluate_segment_many(seg, times)
+        lower, upper = (np.broadcast_to(b, v.shape) for b in bounds(v))
         for i in range(times.size):
             tau = torques(q[i], v[i], a[i])
-            lower, upper = bounds(v[i])
-            if np.any(tau > upper) or np.any(tau < lower):
+            if (tau > upper[i]).any() or (tau < lower[i]).any():
                 return False
     return True
