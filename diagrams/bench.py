@@ -8,6 +8,11 @@ diagram, against diagrams measured in the same run.
   simulator settings, so that the ratio to it shows progress across changes of the scenario. It
   runs the same serves for the same simulated durations (those the project's episodes ended
   at); the launcher's serve sampling is timed separately.
+- The C++-only physics diagram (:class:`PhysicsDiagram`): the serve diagram's physics (plant,
+  contact, aerodynamics, controller behind the servo hold, the camera's 60 Hz events, the
+  accuracy schedule) with C++ systems only, replaying the player's set-points, for the same
+  durations. project / physics is what the Python systems cost; physics / reference what the
+  project's physics adds to the reference's.
 - For a player other than idle: the idle diagram on the same serves (the arm holds still, so
   the ball flies past and the episode ends sooner), and the **replay**: the same serve diagram
   (world, aerodynamics, launcher, referee, controller, servo holds) with the player and its
@@ -35,9 +40,9 @@ import os
 import time
 
 import numpy as np
-from pydrake.systems.analysis import SimulatorConfig
+from pydrake.systems.analysis import ApplySimulatorConfig, SimulatorConfig
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import TrajectorySource
+from pydrake.systems.primitives import TrajectorySource, ZeroOrderHold
 from pydrake.trajectories import PiecewisePolynomial
 
 from tt_drake.benchmarks import bench_momp_planning
@@ -49,7 +54,13 @@ from tt_drake.diagrams.scenario import ControllerConfig, Scenario
 from tt_drake.diagrams.station import add_station, arm_port
 from tt_drake.serves import serve_sampler
 from tt_drake.systems.wam import add_servo_hold
-from tt_drake.systems.world import RECIPE_FLIGHT_ACCURACY, make_simulator, set_ball_state
+from tt_drake.systems.world import (
+    RECIPE_FLIGHT_ACCURACY,
+    advance_in_segments,
+    make_simulator,
+    set_ball_state,
+    simulator_and_schedule,
+)
 from tt_drake.wam_params import AWAITING
 
 # The recipe the C++ reference diagram was defined with (docs/design.md, "Simulation recipe"):
@@ -108,6 +119,57 @@ class ReferenceDiagram:
         return self.context.get_time()
 
 
+class PhysicsDiagram:
+    """The project's physics with C++ systems only: the serve diagram's plant, contact model,
+    drag and Magnus (``aerodynamics``), the arm's controller behind the 500 Hz servo hold, fed
+    by a C++ ``TrajectorySource`` of recorded set-points (as the replay), and the camera's
+    60 Hz events as a C++ ``ZeroOrderHold`` sampling the ball's state; no launcher, referee,
+    player or vision system. It runs at the scenario's simulator settings and accuracy
+    schedule, advancing in the episodes' segments (:func:`advance_in_segments`, the schedule
+    deciding between segments: the one piece of Python, called from Python), for the
+    durations the project's episodes lasted. project / physics is then what every Python
+    system of the serve diagram costs, and physics / reference what the project's physics
+    adds to the reference's (aerodynamics, servo hold, camera events, the schedule)."""
+
+    def __init__(self, scenario: Scenario, segment: float):
+        builder = DiagramBuilder()
+        station = add_station(builder, scenario, robots=1, launcher=False, referee=False)
+        self.world = station.world
+        controller = ControllerPorts(station.GetInputPort(arm_port(0, "desired_state")),
+                                     station.GetInputPort(arm_port(0, "desired_acceleration")))
+        _replay_player(builder, self.world, controller, scenario)
+        camera = builder.AddNamedSystem("camera_events", ZeroOrderHold(
+            1.0 / scenario.camera.rate, station.GetOutputPort("ball_state").size()))
+        builder.Connect(station.GetOutputPort("ball_state"), camera.get_input_port())
+        self.diagram = builder.Build()
+        self.source = self.diagram.GetSubsystemByName("setpoint_replay")
+        self.simulator, self._schedule = simulator_and_schedule(self.diagram, scenario.world,
+                                                                self.world.plant)
+        self._segment = segment
+        self._config = scenario.world.simulator
+        self.context = self.simulator.get_mutable_context()
+        plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
+        self.world.plant.SetPositions(plant_context, self.world.robot, np.asarray(AWAITING))
+        self._initial = self.context.Clone()
+
+    def run(self, launch_state, trajectory: PiecewisePolynomial | None, duration: float
+            ) -> float:
+        """Simulate the serve from ``launch_state`` for ``duration`` with the set-points of
+        ``trajectory`` (None: the arm holds its awaiting posture); returns the time reached."""
+        self.context.SetTimeStateAndParametersFrom(self._initial)
+        ApplySimulatorConfig(self._config, self.simulator)
+        set_ball_state(self.world, self.world.plant.GetMyMutableContextFromRoot(self.context),
+                       launch_state)
+        if trajectory is not None:
+            self.source.UpdateTrajectory(trajectory)
+        self.simulator.Initialize()
+        if self._schedule is None:
+            self.simulator.AdvanceTo(duration)
+        else:
+            advance_in_segments(self.simulator, self._schedule, duration, self._segment)
+        return self.context.get_time()
+
+
 def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str = "idle",
               workers: int = 1) -> dict:
     """Time ``serves`` serve episodes of ``player`` against the C++ reference diagram (and, for
@@ -131,8 +193,12 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
     else:
         durations, trajectories = _record_setpoints(scenario, player, seeds)
     reference = ReferenceDiagram(scenario, max(durations))
+    physics = PhysicsDiagram(scenario, 1.0 / scenario.referee_rate)
     runners = {"project": lambda i: project.run(seeds[i]).duration,
-               "reference": lambda i: reference.run(launch[i].launch_state, durations[i])}
+               "reference": lambda i: reference.run(launch[i].launch_state, durations[i]),
+               "physics": lambda i: physics.run(
+                   launch[i].launch_state, trajectories[i] if trajectories else None,
+                   durations[i])}
     if player != "idle":
         idle = ServeDiagram(scenario, "idle")
         replay = ServeDiagram(scenario, _replay_player)
@@ -161,6 +227,13 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
         # The same ratio in this process's CPU time: steadier on a loaded machine.
         "cpu_ratio_project_to_reference": project_cpu / reference_cpu,
         "per_serve_cpu_ratio_to_reference": _spread(p["cpu"], ref["cpu"]),
+        "physics": {"wall_per_serve": _mean(timed["physics"]["wall"]),
+                    "cpu_per_serve": _mean(timed["physics"]["cpu"])},
+        # What the serve diagram's Python systems cost over the same physics in C++ only, and
+        # what the project's physics costs over the reference's.
+        "cpu_ratio_project_to_physics": project_cpu / _mean(timed["physics"]["cpu"]),
+        "per_serve_cpu_ratio_to_physics": _spread(p["cpu"], timed["physics"]["cpu"]),
+        "cpu_ratio_physics_to_reference": _mean(timed["physics"]["cpu"]) / reference_cpu,
         # Serves whose timed episode lasted as long as the reference was run for it (all of
         # them: the untimed pass and the timed one simulate the same numbers).
         "durations_equal": int(sum(a == b for a, b in zip(p["duration"], durations,
@@ -201,7 +274,9 @@ def run_bench(scenario: Scenario, serves: int = 10, seed: int = 0, player: str =
                                      project.simulator.get_integrator),
         "reference": count_drake_calls(
             lambda: reference.run(launch[0].launch_state, durations[0]),
-            reference.simulator.get_integrator)}
+            reference.simulator.get_integrator),
+        "physics": count_drake_calls(
+            lambda: runners["physics"](0), physics.simulator.get_integrator)}
     if player != "idle":
         result["drake_python_calls"]["replay"] = count_drake_calls(
             lambda: run_replay(0), replay.simulator.get_integrator)
@@ -364,6 +439,12 @@ def format_bench(r: dict) -> str:
         f"{_project_accuracy(r['simulator'])}); in CPU time "
         f"{r['cpu_ratio_project_to_reference']:.2f}",
         f"  per serve (CPU, alternated): {_format_spread(r['per_serve_cpu_ratio_to_reference'])}",
+        f"  C++-only physics   {1e3 * r['physics']['wall_per_serve']:8.1f} ms/serve   "
+        f"(the project's physics, no Python system)      "
+        f"{1e3 * r['physics']['cpu_per_serve']:8.1f} CPU ms/serve",
+        f"  in CPU time: project/physics {r['cpu_ratio_project_to_physics']:.2f} (the Python "
+        f"systems; per serve {_format_spread(r['per_serve_cpu_ratio_to_physics'])}), "
+        f"physics/reference {r['cpu_ratio_physics_to_reference']:.2f}",
         f"  serve sampling (included in project): "
         f"{1e3 * r['serve_sampling_per_serve']:.1f} ms/serve",
     ]

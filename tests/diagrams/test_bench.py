@@ -1,4 +1,5 @@
-"""The benchmark's set-point replay simulates the same physics as the episode it replays."""
+"""The benchmark's set-point replay and C++-only physics diagram simulate the same physics as the
+episode they replay."""
 
 import numpy as np
 import pytest
@@ -32,6 +33,37 @@ def test_replayed_setpoints_return_the_ball_to_the_same_spot():
                                                          rel=1e-4)
     # The holds start at the player's first set-point: no start-up torque spike.
     assert original.arm["saturated_fraction"] == 0.0
+
+
+def test_the_cpp_only_physics_diagram_is_the_episodes_physics_to_the_bit():
+    """Replaying an episode's set-points for its duration, with the camera's 60 Hz events and the
+    accuracy schedule between the referee's segments, the C++-only diagram ends with the ball
+    and the arm exactly where the episode left them: the integrator met the same events, so
+    project / physics is the cost of the Python systems alone."""
+    from tt_drake.diagrams.bench import PhysicsDiagram
+    from tt_drake.serves import serve_sampler
+
+    scenario = load_scenario()
+    seed = episode_seed(5, 0)
+    played = ServeDiagram(scenario, "analytical", log_setpoints=True)
+    original = played.run(seed)
+    assert original.outcome.hit
+    ticks, setpoints = played.setpoints()
+    physics = PhysicsDiagram(scenario, 1.0 / scenario.referee_rate)
+    launch = serve_sampler(scenario.launcher).sample(seed).launch_state
+    end = physics.run(launch, PiecewisePolynomial.FirstOrderHold(ticks, setpoints.T),
+                      original.duration)
+    assert end == original.duration
+
+    def positions(diagram, instance):
+        plant = diagram.world.plant
+        return plant.GetPositions(plant.GetMyContextFromRoot(diagram.context), instance)
+
+    for instance in ("ball", "robot"):
+        np.testing.assert_array_equal(
+            positions(physics, getattr(physics.world, instance)),
+            positions(played, getattr(played.world, instance)))
+    assert not np.allclose(positions(physics, physics.world.ball)[4:], launch[0:3], atol=0.1)
 
 
 def test_reference_diagram_keeps_the_recipe_whatever_the_scenario():
