@@ -54,10 +54,11 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.multibody.inverse_kinematics import InverseKinematics
-from pydrake.multibody.tree import JacobianWrtVariable, MultibodyForces
+from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.solvers import SnoptSolver, SolverOptions
 
 from tt_drake import wam_params as wp
+from tt_drake.systems.arm_dynamics import chain_of
 from tt_drake.systems.wam import RACKET_CENTER_FRAME, make_control_plant
 
 NUM_JOINTS = wp.NUM_JOINTS
@@ -166,7 +167,7 @@ class HittingIK:
         self.context = self.plant.CreateDefaultContext()
         self._frame_c = self.plant.GetFrameByName(RACKET_CENTER_FRAME)
         self._world = self.plant.world_frame()
-        self._forces = MultibodyForces(self.plant)  # the inverse dynamics' applied forces
+        self.chain = chain_of(self.plant)  # the arm's inverse dynamics, compiled
         self.comfort = np.asarray(comfort, dtype=float).reshape(NUM_JOINTS)
         self.weights = (1.0 / JOINT_HALF_RANGE**2 if weights is None
                         else np.asarray(weights, dtype=float).reshape(NUM_JOINTS))
@@ -290,16 +291,13 @@ class HittingIK:
     # ----------------------------------------------------------------------------- dynamics
     def torques(self, q, qdot, qddot) -> np.ndarray:
         """Joint torques tau = M(q) q_ddot + C(q, q_dot) q_dot - tau_g(q) that the arm (with its
-        racket) needs to follow (q, q_dot, q_ddot): inverse dynamics on the control plant, the
-        same model the InverseDynamicsController uses, and the same computation as Drake's
-        ``InverseDynamics``: the plant's force elements (its only one is the uniform gravity
-        field, so -tau_g(q)) go into the applied forces before ``CalcInverseDynamics``, which
-        adds none by itself. At rest the result is -tau_g(q), the torque that holds the arm up
-        (at HITTING_COMFORT 23.9 N m on the shoulder, 0.52 N m on the wrist's 3 N m joint 5)."""
-        self.plant.SetPositionsAndVelocities(self.context, np.concatenate((q, qdot)))
-        self.plant.CalcForceElementsContribution(self.context, self._forces)
-        return self.plant.CalcInverseDynamics(self.context, np.asarray(qddot, dtype=float),
-                                              self._forces)
+        racket) needs to follow (q, q_dot, q_ddot), for one sample (7,) or many (K, 7) at once:
+        the recursive Newton-Euler algorithm on the control plant's bodies, the model the
+        InverseDynamicsController uses (:mod:`tt_drake.rnea`, compiled; it agrees with Drake's
+        ``CalcInverseDynamics`` with the plant's gravity as applied force to ~1e-13 N m). At
+        rest the result is -tau_g(q), the torque that holds the arm up (at HITTING_COMFORT 23.9
+        N m on the shoulder, 0.52 N m on the wrist's 3 N m joint 5)."""
+        return self.chain.torques(q, qdot, qddot)
 
     # ----------------------------------------------------------------------------- velocities
     def joint_velocities(self, q, v_racket, omega_racket=None,

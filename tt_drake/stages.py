@@ -340,14 +340,15 @@ def within_effort(plan: StagePlan, torques, budget, now: float = -np.inf,
     """Inverse dynamics ``torques(q, q_dot, q_ddot)`` along ``plan`` from ``now`` on, sampled at
     ``rate`` Hz, within ``budget`` everywhere: the controller can then follow it. ``torques``
     must be the plan's whole feed-forward torque, M q_ddot + C q_dot - tau_g
-    (:meth:`tt_drake.systems.hitting_ik.HittingIK.torques`, gravity included). ``budget``: per
-    joint, ``|tau| <= budget``; or an object whose ``bounds(q_dot)`` gives the (lower, upper)
-    torques at joint speeds ``q_dot`` elementwise, for one sample (n_dof,) or many (K, n_dof)
+    (:meth:`tt_drake.systems.hitting_ik.HittingIK.torques`, gravity included), for many
+    samples at once: (K, n_dof) arrays in, (K, n_dof) out. ``budget``: per joint,
+    ``|tau| <= budget``; or an object whose ``bounds(q_dot)`` gives the (lower, upper) torques
+    at joint speeds ``q_dot`` elementwise, for one sample (n_dof,) or many (K, n_dof)
     (:class:`tt_drake.drives.EffortBudget`, the drives' envelope).
 
-    Each segment's samples and their bounds are evaluated at once (:func:`evaluate_segment_many`,
-    one ``bounds`` call on the (K, n_dof) speeds); the inverse dynamics stays one call per sample
-    and the check stops at the first sample over budget."""
+    Segment by segment, each segment's samples, their torques and their bounds in one call each
+    (:func:`evaluate_segment_many`); the check stops at the first segment with a sample over
+    budget."""
     bounds = getattr(budget, "bounds", None)
     if bounds is None:
         limit = np.asarray(budget, dtype=float)
@@ -361,9 +362,8 @@ def within_effort(plan: StagePlan, torques, budget, now: float = -np.inf,
         if times.size == 0:
             continue
         q, v, a = evaluate_segment_many(seg, times)
-        lower, upper = (np.broadcast_to(b, v.shape) for b in bounds(v))
-        for i in range(times.size):
-            tau = torques(q[i], v[i], a[i])
-            if (tau > upper[i]).any() or (tau < lower[i]).any():
-                return False
+        lower, upper = bounds(v)
+        tau = torques(q, v, a)
+        if (tau > upper).any() or (tau < lower).any():
+            return False
     return True

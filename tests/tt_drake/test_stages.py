@@ -165,11 +165,14 @@ def test_a_plans_evaluate_many_gives_the_values_of_evaluate():
     np.testing.assert_array_equal(one[0][0], plan.evaluate(ends[1])[0])
 
 
-def test_effort_check_is_the_sampled_bound_and_stops_at_the_first_excess():
+def test_effort_check_is_the_sampled_bound_and_stops_at_the_first_segment_over_it():
+    """Every 50 Hz sample of every segment from ``now`` on is held to the budget, a segment's
+    samples in one call of ``torques``; a segment over budget ends the check, the segments
+    after it are not evaluated."""
     from tt_drake.stages import StagePlan, within_effort
 
     seg = _segments()[0]
-    plan = StagePlan([(HITTING, seg)])
+    later = Quintic.fit(seg.t_end, 0.3, *np.random.default_rng(3).normal(size=(6, 7)))
     calls = []
 
     def law(q, qd, qdd):  # a stand-in for inverse dynamics
@@ -182,12 +185,16 @@ def test_effort_check_is_the_sampled_bound_and_stops_at_the_first_excess():
     times = np.arange(seg.t0, seg.t_end + 1e-9, 1.0 / 50.0)
     sampled = [np.abs(law(*seg.evaluate(t))).max() for t in times]
     peak = max(sampled)
+    plan = StagePlan([(HITTING, seg)])
     assert within_effort(plan, torques, np.full(7, peak))
-    assert len(calls) == times.size
+    assert len(calls) == 1 and len(calls[0]) == times.size  # one call, every sample
     calls.clear()
     assert not within_effort(plan, torques, np.full(7, 0.999 * peak))
-    first = next(i for i, m in enumerate(sampled) if m > 0.999 * peak)
-    assert len(calls) == first + 1
+    # Over budget in the first segment: the second is never evaluated.
+    calls.clear()
+    assert not within_effort(StagePlan([(HITTING, seg), (AWAITING, later)]), torques,
+                             np.full(7, 0.999 * peak))
+    assert len(calls) == 1
 
 
 def test_effort_check_with_the_drives_bounds_each_sample_at_its_speed():
