@@ -67,6 +67,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from tt_drake.ball_model import BallModel, BallModelParams, CompliantBounceBallModel
+from tt_drake.flight_kernel import variational_flight
 
 UNINITIALISED = 0.0
 TRACKING = 1.0
@@ -284,8 +285,9 @@ def flight_step_spin_variational(model: BallModel, pos: tuple, vel: tuple, w: tu
 def propagate_flight_jacobian(model: BallModel, x, duration: float
                               ) -> tuple[np.ndarray, np.ndarray] | None:
     """``propagate_exact``'s state of the 9-state ``x`` (the same steps, so the same numbers) and
-    its Jacobian F = df/dx from the variational equation (:func:`flight_step_spin_variational`),
-    or None if a table bounce happens within ``duration``.
+    its Jacobian F = df/dx from the variational equation
+    (:func:`tt_drake.flight_kernel.variational_flight`, compiled), or None if a table bounce
+    happens within ``duration``.
 
     Without a bounce the acceleration does not depend on the position and the spin is constant,
     so F = [[I, dp/dv0, dp/dw0], [0, dv/dv0, dv/dw0], [0, 0, I]]; dp/dv0 and the spin blocks
@@ -293,24 +295,31 @@ def propagate_flight_jacobian(model: BallModel, x, duration: float
     pos, vel, w = _as_state9(x)
     if starts_in_contact(model, pos, vel):
         return None
-    dp = (0.0,) * 18
-    dv = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-          0.0, 1.0, 0.0, 0.0, 0.0, 0.0,
-          0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
-    t = 0.0
-    contact_z = model.params.table_z + model.params.radius
-    while duration - t > 1e-12:
-        h = min(model.dt, duration - t)
-        new_p, new_v, new_dp, new_dv = flight_step_spin_variational(model, pos, vel, w, h, dp, dv)
-        # table_impact's precondition (the step goes down through the contact height) first.
-        if (new_p[2] < contact_z <= pos[2] and new_v[2] < 0.0
-                and model.table_impact(pos, vel, w, h, new_p, new_v) is not None):
+    p = model.params
+    position, velocity, spin = np.array(pos), np.array(vel), np.array(w)
+    dp = np.zeros(18)
+    dv = np.zeros(18)
+    dv[0] = dv[7] = dv[14] = 1.0
+    pending = np.empty(42)
+    t, contact_z = 0.0, p.table_z + p.radius
+    while True:
+        status, t, h = variational_flight(position, velocity, spin, dp, dv, t, duration,
+                                          model.dt, p.drag_k, p.magnus_cl, p.gravity,
+                                          contact_z, pending)
+        if status == 0:
+            break
+        # The step goes down through the contact height: a bounce if it meets the table.
+        new_p, new_v = tuple(pending[0:3].tolist()), tuple(pending[3:6].tolist())
+        if model.table_impact(tuple(position.tolist()), tuple(velocity.tolist()), w, h,
+                              new_p, new_v) is not None:
             return None
-        pos, vel, dp, dv, t = new_p, new_v, new_dp, new_dv, t + h
+        position[:], velocity[:] = pending[0:3], pending[3:6]
+        dp[:], dv[:] = pending[6:24], pending[24:42]
+        t = t + h
     F = np.eye(N_STATE)
-    F[0:3, 3:9] = np.reshape(dp, (3, 6))
-    F[3:6, 3:9] = np.reshape(dv, (3, 6))
-    return np.array(pos + vel + w), F
+    F[0:3, 3:9] = dp.reshape(3, 6)
+    F[3:6, 3:9] = dv.reshape(3, 6)
+    return np.concatenate((position, velocity, spin)), F
 
 
 class BallFlightEKF:

@@ -13,14 +13,15 @@ last bit (``tests/tt_drake/test_flight_kernel.py``).
 
 The compiled code is cached on disk (numba's ``cache=True``): beside this file when the install
 is writable, else in the user's cache directory (``NUMBA_CACHE_DIR`` if set). Where no cache
-directory can be written (a read-only install and a read-only home) :func:`compiled` compiles
-in memory, once per process.
+directory can be written (a read-only install and a read-only home) or the cache cannot be
+written (a full disk) :func:`compiled` compiles in memory, once per process (~1 s).
 """
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 #: The kernel's signature: position, velocity and spin (9 floats), drag k, Magnus C_L, gravity,
@@ -30,13 +31,14 @@ SIGNATURE = "UniTuple(float64, 6)(" + ", ".join(["float64"] * 13) + ", int64)"
 
 
 def compiled(signature: str):
-    """numba's ``njit(signature, cache=True)``, or without the on-disk cache where numba finds
-    no directory to write it to (it raises RuntimeError then)."""
+    """numba's ``njit(signature, cache=True)``: compiled at import, or loaded from the on-disk
+    cache. Where numba finds no directory to write the cache to (it raises RuntimeError) or
+    cannot write it (OSError: a full disk, a file size limit), compiled without the cache."""
 
     def decorate(function):
         try:
             return njit(signature, cache=True)(function)
-        except RuntimeError:
+        except (RuntimeError, OSError):
             return njit(signature)(function)
 
     return decorate
@@ -85,3 +87,137 @@ def rk4_flight(px, py, pz, vx, vy, vz, wx, wy, wz, k, c, g, h, steps):
                       vy + h6 * (ay1 + 2 * ay2 + 2 * ay3 + ay4),
                       vz + h6 * (az1 + 2 * az2 + 2 * az3 + az4))
     return px, py, pz, vx, vy, vz
+
+
+#: last_table_contact's signature: the state (9 floats), drag k, Magnus C_L, gravity, step dt,
+#: max_time, the contact height and the table's half width and half length; returns a float.
+BACKWARD_SIGNATURE = "float64(" + ", ".join(["float64"] * 17) + ")"
+
+
+@compiled(BACKWARD_SIGNATURE)
+def last_table_contact(px, py, pz, vx, vy, vz, wx, wy, wz, k, c, g, dt, max_time, contact_z,
+                       half_width, half_length):
+    """How long ago (s) the ball's centre, followed back in time by RK4 steps of -``dt``
+    (:func:`rk4_flight`), was at or below ``contact_z`` over the table (|x| <= half_width,
+    |y| <= half_length) before getting back to the net's plane y = 0; -1.0 if it gets there
+    first or ``max_time`` passes (``tt_drake.hitting_time.last_robot_bounce``'s loop, the same
+    steps and tests)."""
+    t = 0.0
+    while t < max_time:
+        px, py, pz, vx, vy, vz = rk4_flight(px, py, pz, vx, vy, vz, wx, wy, wz, k, c, g, -dt, 1)
+        t += dt
+        if py >= 0.0:
+            return -1.0
+        if pz <= contact_z and abs(px) <= half_width and abs(py) <= half_length:
+            return t
+    return -1.0
+
+
+#: variational_flight's signature: position, velocity and spin (3 each), the sensitivities dp and
+#: dv (3 x 6, row-major, 18 each; position, velocity and the two sensitivities are updated in
+#: place), the time reached and the duration, the step, drag k, Magnus C_L, gravity and the
+#: contact height; the 6 + 36 values of a pending step (out); returns (status, time, step).
+VARIATIONAL_SIGNATURE = ("Tuple((int64, float64, float64))(float64[:], float64[:], float64[:], "
+                         "float64[:], float64[:], float64, float64, float64, float64, float64, "
+                         "float64, float64, float64[:])")
+
+
+@compiled(VARIATIONAL_SIGNATURE)
+def variational_flight(pos, vel, w, dp, dv, t, duration, dt, k, c, g, contact_z, pending):
+    """RK4 flight steps of at most ``dt`` (the last shortened to end at ``duration``) from time
+    ``t``, each with the sensitivities of (p, v) to the initial velocity and spin (``dp``,
+    ``dv``: 3 x 6 each, columns v0 and omega0). They obey the variational equation
+
+        dp' = dv,    dv' = J(v) dv + [0 | B(v)],    B(v) = -C_L [v]x,
+        J(v) = d(v')/dv = -k (|v| I + v v^T / |v|) + C_L [omega]x,
+
+    integrated by the step's own RK4 stages: with the stage velocities v_i (:func:`rk4_flight`),
+    D_i = J(v_i) X_i + [0 | B(v_i)], X1 = dv, X2 = dv + h/2 D1, X3 = dv + h/2 D2,
+    X4 = dv + h D3,
+
+        dp+ = dp + h/6 (X1 + 2 X2 + 2 X3 + X4),    dv+ = dv + h/6 (D1 + 2 D2 + 2 D3 + D4),
+
+    the exact derivative of the RK4 step. ``pos``, ``vel``, ``dp``, ``dv`` are advanced in
+    place. Returns (0, t, h) at ``duration``; or (1, t, h) before a step of length h that takes
+    the ball's centre down through ``contact_z`` (the table's contact height: the caller decides
+    whether it meets the table), that step's p, v, dp, dv in ``pending`` (3 + 3 + 18 + 18)."""
+    n1 = np.empty(18)
+    n2 = np.empty(18)
+    D = np.empty((4, 18))
+    X = np.empty((4, 18))
+    V = np.empty((4, 3))
+    A = np.empty((4, 3))
+    wx, wy, wz = w[0], w[1], w[2]
+    h = dt
+    while duration - t > 1e-12:
+        h = min(dt, duration - t)
+        hh = 0.5 * h
+        h6 = h / 6.0
+        # The stage velocities and accelerations (rk4_flight's, in the same order).
+        for i in range(4):
+            if i == 0:
+                x, y, z = vel[0], vel[1], vel[2]
+            else:
+                f = hh if i < 3 else h
+                x = vel[0] + f * A[i - 1, 0]
+                y = vel[1] + f * A[i - 1, 1]
+                z = vel[2] + f * A[i - 1, 2]
+            V[i, 0], V[i, 1], V[i, 2] = x, y, z
+            kd = k * math.sqrt(x * x + y * y + z * z)
+            A[i, 0] = -kd * x + c * (wy * z - wz * y)
+            A[i, 1] = -kd * y + c * (wz * x - wx * z)
+            A[i, 2] = -g - kd * z + c * (wx * y - wy * x)
+        # The sensitivities' stages: X_1 = dv, D_i = J(v_i) X_i + [0 | B(v_i)].
+        for i in range(4):
+            if i == 0:
+                for e in range(18):
+                    X[0, e] = dv[e]
+            else:
+                f = hh if i < 3 else h
+                for e in range(18):
+                    X[i, e] = dv[e] + f * D[i - 1, e]
+            x, y, z = V[i, 0], V[i, 1], V[i, 2]
+            speed = math.sqrt(x * x + y * y + z * z)
+            kd = k * speed
+            ks = k / speed if speed > 0.0 else 0.0
+            J0, J1, J2 = -kd - ks * x * x, -ks * x * y - c * wz, -ks * x * z + c * wy
+            J3, J4, J5 = -ks * y * x + c * wz, -kd - ks * y * y, -ks * y * z - c * wx
+            J6, J7, J8 = -ks * z * x - c * wy, -ks * z * y + c * wx, -kd - ks * z * z
+            for col in range(6):
+                a0, a1, a2 = X[i, col], X[i, 6 + col], X[i, 12 + col]
+                D[i, col] = J0 * a0 + J1 * a1 + J2 * a2
+                D[i, 6 + col] = J3 * a0 + J4 * a1 + J5 * a2
+                D[i, 12 + col] = J6 * a0 + J7 * a1 + J8 * a2
+            # + [0 | B(v)], B = -C_L [v]x, row-major.
+            D[i, 4] += c * z
+            D[i, 5] += -c * y
+            D[i, 9] += -c * z
+            D[i, 11] += c * x
+            D[i, 15] += c * y
+            D[i, 16] += -c * x
+            D[i, 3] += 0.0
+            D[i, 10] += 0.0
+            D[i, 17] += 0.0
+        npx = pos[0] + h6 * (V[0, 0] + 2 * V[1, 0] + 2 * V[2, 0] + V[3, 0])
+        npy = pos[1] + h6 * (V[0, 1] + 2 * V[1, 1] + 2 * V[2, 1] + V[3, 1])
+        npz = pos[2] + h6 * (V[0, 2] + 2 * V[1, 2] + 2 * V[2, 2] + V[3, 2])
+        nvx = vel[0] + h6 * (A[0, 0] + 2 * A[1, 0] + 2 * A[2, 0] + A[3, 0])
+        nvy = vel[1] + h6 * (A[0, 1] + 2 * A[1, 1] + 2 * A[2, 1] + A[3, 1])
+        nvz = vel[2] + h6 * (A[0, 2] + 2 * A[1, 2] + 2 * A[2, 2] + A[3, 2])
+        for e in range(18):
+            n1[e] = dp[e] + h6 * (X[0, e] + 2 * X[1, e] + 2 * X[2, e] + X[3, e])
+            n2[e] = dv[e] + h6 * (D[0, e] + 2 * D[1, e] + 2 * D[2, e] + D[3, e])
+        if npz < contact_z <= pos[2] and nvz < 0.0:
+            pending[0], pending[1], pending[2] = npx, npy, npz
+            pending[3], pending[4], pending[5] = nvx, nvy, nvz
+            for e in range(18):
+                pending[6 + e] = n1[e]
+                pending[24 + e] = n2[e]
+            return 1, t, h
+        pos[0], pos[1], pos[2] = npx, npy, npz
+        vel[0], vel[1], vel[2] = nvx, nvy, nvz
+        for e in range(18):
+            dp[e] = n1[e]
+            dv[e] = n2[e]
+        t = t + h
+    return 0, t, h

@@ -33,6 +33,7 @@ import numpy as np
 
 from tt_drake.ball_model import BallModel, PlaneCrossing
 from tt_drake.constants import PLANES, TABLE
+from tt_drake.flight_kernel import last_table_contact
 
 #: The path is followed until the ball's centre falls to this height (m): far below any hit.
 FALL_Z = 0.1
@@ -62,19 +63,11 @@ def last_robot_bounce(model: BallModel, state, max_time: float = 1.0,
     if s[1] >= 0.0:
         return None
     p = model.params
-    contact_z = p.table_z + p.radius
-    pos, vel = tuple(s[0:3].tolist()), tuple(s[3:6].tolist())
-    w = tuple(s[6:9].tolist()) if s.size >= 9 else (0.0, 0.0, 0.0)
-    dt = model.dt if step is None else step
-    t = 0.0
-    while t < max_time:
-        pos, vel = model.flight_step(pos, vel, w, -dt)
-        t += dt
-        if pos[1] >= 0.0:
-            return None
-        if pos[2] <= contact_z and model.over_table(pos[0], pos[1]):
-            return t
-    return None
+    w = s[6:9].tolist() if s.size >= 9 else [0.0, 0.0, 0.0]
+    t = last_table_contact(*s[0:6].tolist(), *w, p.drag_k, p.magnus_cl, p.gravity,
+                           model.dt if step is None else step, max_time, p.table_z + p.radius,
+                           p.table_half_width, p.table_half_length)
+    return None if t < 0.0 else t
 
 
 @dataclass(frozen=True)

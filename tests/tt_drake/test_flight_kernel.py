@@ -65,20 +65,23 @@ def test_the_step_is_the_flight_equations_acceleration():
     assert np.allclose((np.array(v_new) - vel) / h, expected, rtol=1e-6, atol=1e-6)
 
 
-def test_without_a_writable_cache_directory_the_kernel_compiles_in_memory(monkeypatch):
+@pytest.mark.parametrize("error", [RuntimeError("cannot cache function: no locator available"),
+                                   OSError(27, "File too large")])
+def test_without_a_writable_cache_the_kernel_compiles_in_memory(monkeypatch, error):
     """numba raises RuntimeError at ``cache=True`` when neither the install nor the user's cache
-    directory can be written (a read-only install): the kernel is then compiled without the
-    disk cache, and computes the same numbers."""
+    directory can be written (a read-only install), and OSError when the cache file cannot be
+    written (a full disk): the kernel is then compiled without the disk cache, and computes the
+    same numbers."""
     real_njit = flight_kernel.njit
     asked = []
 
-    def njit_without_locator(*args, **kwargs):
+    def njit_without_cache(*args, **kwargs):
         asked.append(kwargs.get("cache", False))
         if kwargs.get("cache"):
-            raise RuntimeError("cannot cache function: no locator available")
+            raise error
         return real_njit(*args, **kwargs)
 
-    monkeypatch.setattr(flight_kernel, "njit", njit_without_locator)
+    monkeypatch.setattr(flight_kernel, "njit", njit_without_cache)
     kernel = flight_kernel.compiled(flight_kernel.SIGNATURE)(flight_kernel.rk4_flight.py_func)
     assert asked == [True, False]
     args = (0.1, 1.2, 0.9, 0.3, -6.0, 1.0, 10.0, -90.0, 5.0, MODEL.params.drag_k,
