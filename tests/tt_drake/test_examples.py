@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import json
 from pathlib import Path
 
 import numpy as np
@@ -92,3 +93,21 @@ def test_the_floors_stub_player_plays_the_recorded_setpoints():
         # The same set-points; the stubs' events cut the integrator's steps elsewhere.
         assert got.outcome == expected.outcome and got.hit
         np.testing.assert_allclose(got.landing, expected.landing, atol=1e-3)
+
+
+def test_the_gym_episode_timer_times_each_episode_once(tmp_path):
+    """docs/examples/gym_episode_cpu.py plays one episode per seed to its end and reports its
+    CPU time; the JSON it writes holds what it printed."""
+    pytest.importorskip("gymnasium")
+    spec = importlib.util.spec_from_file_location("example_gym_cpu",
+                                                  EXAMPLES / "gym_episode_cpu.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    out = tmp_path / "cpu.json"
+    assert module.main(["--episodes", "2", "--seed", "5", "--action", "absolute",
+                        "--json", str(out)]) == 0
+    r = json.loads(out.read_text())
+    assert r["episodes"] == 2 and len(r["cpu"]) == 2 and all(c > 0.0 for c in r["cpu"])
+    assert r["cpu_per_episode"] == pytest.approx(np.mean(r["cpu"]))
+    with pytest.raises(SystemExit):
+        module.main(["--episodes", "0"])
