@@ -14,7 +14,9 @@ last bit (``tests/tt_drake/test_flight_kernel.py``).
 The compiled code is cached on disk (numba's ``cache=True``): beside this file when the install
 is writable, else in the user's cache directory (``NUMBA_CACHE_DIR`` if set). Where no cache
 directory can be written (a read-only install and a read-only home) or the cache cannot be
-written (a full disk) :func:`compiled` compiles in memory, once per process (~1 s).
+written (a full disk) :func:`compiled` compiles in memory, once per process (~1 s). numba
+invalidates a cached kernel when its source file changes, not when a function it calls in
+another file does: :func:`acceleration`, which the kernels inline, lives in this file for that.
 """
 
 from __future__ import annotations
@@ -44,6 +46,15 @@ def compiled(signature: str):
     return decorate
 
 
+@njit(inline="always")
+def acceleration(vx, vy, vz, wx, wy, wz, k, c, g):
+    """v' = g - k |v| v + C_L (omega x v), as three floats (inlined into the kernels)."""
+    kd = k * math.sqrt(vx * vx + vy * vy + vz * vz)
+    return (-kd * vx + c * (wy * vz - wz * vy),
+            -kd * vy + c * (wz * vx - wx * vz),
+            -g - kd * vz + c * (wx * vy - wy * vx))
+
+
 @compiled(SIGNATURE)
 def rk4_flight(px, py, pz, vx, vy, vz, wx, wy, wz, k, c, g, h, steps):
     """``steps`` RK4 steps of length ``h`` (s) of the flight ODE from (p, v) with spin omega,
@@ -57,29 +68,13 @@ def rk4_flight(px, py, pz, vx, vy, vz, wx, wy, wz, k, c, g, h, steps):
     hh = 0.5 * h
     h6 = h / 6.0
     for _ in range(steps):
-        # Stage 1: a1 = a(v).
-        kd = k * math.sqrt(vx * vx + vy * vy + vz * vz)
-        ax1 = -kd * vx + c * (wy * vz - wz * vy)
-        ay1 = -kd * vy + c * (wz * vx - wx * vz)
-        az1 = -g - kd * vz + c * (wx * vy - wy * vx)
-        # Stage 2: v2 = v + h/2 a1, a2 = a(v2).
+        ax1, ay1, az1 = acceleration(vx, vy, vz, wx, wy, wz, k, c, g)
         x2, y2, z2 = vx + hh * ax1, vy + hh * ay1, vz + hh * az1
-        kd = k * math.sqrt(x2 * x2 + y2 * y2 + z2 * z2)
-        ax2 = -kd * x2 + c * (wy * z2 - wz * y2)
-        ay2 = -kd * y2 + c * (wz * x2 - wx * z2)
-        az2 = -g - kd * z2 + c * (wx * y2 - wy * x2)
-        # Stage 3: v3 = v + h/2 a2, a3 = a(v3).
+        ax2, ay2, az2 = acceleration(x2, y2, z2, wx, wy, wz, k, c, g)
         x3, y3, z3 = vx + hh * ax2, vy + hh * ay2, vz + hh * az2
-        kd = k * math.sqrt(x3 * x3 + y3 * y3 + z3 * z3)
-        ax3 = -kd * x3 + c * (wy * z3 - wz * y3)
-        ay3 = -kd * y3 + c * (wz * x3 - wx * z3)
-        az3 = -g - kd * z3 + c * (wx * y3 - wy * x3)
-        # Stage 4: v4 = v + h a3, a4 = a(v4).
+        ax3, ay3, az3 = acceleration(x3, y3, z3, wx, wy, wz, k, c, g)
         x4, y4, z4 = vx + h * ax3, vy + h * ay3, vz + h * az3
-        kd = k * math.sqrt(x4 * x4 + y4 * y4 + z4 * z4)
-        ax4 = -kd * x4 + c * (wy * z4 - wz * y4)
-        ay4 = -kd * y4 + c * (wz * x4 - wx * z4)
-        az4 = -g - kd * z4 + c * (wx * y4 - wy * x4)
+        ax4, ay4, az4 = acceleration(x4, y4, z4, wx, wy, wz, k, c, g)
         px, py, pz = (px + h6 * (vx + 2 * x2 + 2 * x3 + x4),
                       py + h6 * (vy + 2 * y2 + 2 * y3 + y4),
                       pz + h6 * (vz + 2 * z2 + 2 * z3 + z4))
@@ -163,10 +158,7 @@ def variational_flight(pos, vel, w, dp, dv, t, duration, dt, k, c, g, contact_z,
                 y = vel[1] + f * A[i - 1, 1]
                 z = vel[2] + f * A[i - 1, 2]
             V[i, 0], V[i, 1], V[i, 2] = x, y, z
-            kd = k * math.sqrt(x * x + y * y + z * z)
-            A[i, 0] = -kd * x + c * (wy * z - wz * y)
-            A[i, 1] = -kd * y + c * (wz * x - wx * z)
-            A[i, 2] = -g - kd * z + c * (wx * y - wy * x)
+            A[i, 0], A[i, 1], A[i, 2] = acceleration(x, y, z, wx, wy, wz, k, c, g)
         # The sensitivities' stages: X_1 = dv, D_i = J(v_i) X_i + [0 | B(v_i)].
         for i in range(4):
             if i == 0:

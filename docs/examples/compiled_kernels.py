@@ -1,0 +1,120 @@
+"""CPU per call of the compiled ball flight and inverse dynamics against the arithmetic they
+replace, and their agreement (docs/performance.md, "Compiled arithmetic").
+
+    OPENBLAS_NUM_THREADS=1 python docs/examples/compiled_kernels.py [--repeats 2000]
+
+- a flight step: ``BallModel.flight_step`` (compiled) against ``BallModel.rk4_stages`` (the same
+  RK4 step in Python floats), and a 25-step flight (``BallModel.fly``) against 25 such steps;
+- the backward bounce test (``hitting_time.last_robot_bounce``) against its loop of Python-float
+  steps, on 200 states of balls on the robot's half;
+- the arm's inverse dynamics for a 50-sample plan segment: ``HittingIK.torques`` (compiled RNEA,
+  all samples in one call) against Drake's ``CalcInverseDynamics`` per sample.
+
+Each pair is checked: the flights and the bounce times must be equal to the bit, the torques
+within 1e-9 N m; the script exits with status 1 otherwise.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+import numpy as np
+from pydrake.multibody.tree import MultibodyForces
+
+from tt_drake.ball_model import BallModel
+from tt_drake.hitting_time import last_robot_bounce
+from tt_drake.systems.hitting_ik import HittingIK
+
+
+def _cpu_us(fn, repeats: int) -> float:
+    c0 = time.process_time()
+    for _ in range(repeats):
+        fn()
+    return 1e6 * (time.process_time() - c0) / repeats
+
+
+def _python_flight(model: BallModel, pos, vel, w, h: float, steps: int):
+    for _ in range(steps):
+        _, pos, vel = model.rk4_stages(pos, vel, w, h)
+    return pos, vel
+
+
+def _python_backward(model: BallModel, state, step: float, max_time: float = 1.0):
+    """last_robot_bounce's loop in Python floats."""
+    p = model.params
+    contact_z = p.table_z + p.radius
+    pos, vel, w = tuple(state[0:3]), tuple(state[3:6]), tuple(state[6:9])
+    t = 0.0
+    while t < max_time:
+        pos, vel = _python_flight(model, pos, vel, w, -step, 1)
+        t += step
+        if pos[1] >= 0.0:
+            return None
+        if pos[2] <= contact_z and model.over_table(pos[0], pos[1]):
+            return t
+    return None
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--repeats", type=int, default=2000)
+    args = ap.parse_args(argv)
+    n = max(1, args.repeats)
+    model = BallModel()
+    pos, vel, w = (0.1, 1.2, 0.9), (0.3, -6.0, 1.0), (10.0, -90.0, 5.0)
+    ok = True
+
+    same = model.flight_step(pos, vel, w, 0.01) == model.rk4_stages(pos, vel, w, 0.01)[1:]
+    same &= model.fly(pos, vel, w, 0.02, 25) == _python_flight(model, pos, vel, w, 0.02, 25)
+    step_py = _cpu_us(lambda: model.rk4_stages(pos, vel, w, 0.01), n)
+    step_c = _cpu_us(lambda: model.flight_step(pos, vel, w, 0.01), n)
+    fly_py = _cpu_us(lambda: _python_flight(model, pos, vel, w, 0.02, 25), max(1, n // 10))
+    fly_c = _cpu_us(lambda: model.fly(pos, vel, w, 0.02, 25), n)
+    print(f"flight step: Python floats {step_py:.2f} us, compiled {step_c:.2f} us; 25 steps: "
+          f"{fly_py:.1f} us, {fly_c:.2f} us; equal to the bit: {same}")
+    ok &= same
+
+    rng = np.random.default_rng(0)
+    states = [np.r_[rng.uniform(-0.7, 0.7), rng.uniform(-1.5, -0.05), rng.uniform(0.8, 1.2),
+                    rng.normal(0.0, 1.0), rng.uniform(-7.0, -2.0), rng.normal(0.0, 3.0),
+                    rng.normal(0.0, 80.0, 3)] for _ in range(200)]
+    states = [s.tolist() for s in states]
+    same = all(last_robot_bounce(model, s, step=0.002) == _python_backward(model, s, 0.002)
+               for s in states)
+    reps = max(1, n // 200)
+    back_py = _cpu_us(lambda: [_python_backward(model, s, 0.002) for s in states], reps) / 200
+    back_c = _cpu_us(lambda: [last_robot_bounce(model, s, step=0.002) for s in states],
+                     reps) / 200
+    print(f"backward bounce test (2 ms steps): Python floats {back_py:.1f} us, compiled "
+          f"{back_c:.1f} us per state; the same answers: {same}")
+    ok &= same
+
+    ik = HittingIK()
+    plant, context = ik.plant, ik.plant.CreateDefaultContext()
+    forces = MultibodyForces(plant)
+    Q = rng.uniform(-2.0, 2.0, (50, 7))
+    V = rng.normal(0.0, 3.0, (50, 7))
+    A = rng.normal(0.0, 30.0, (50, 7))
+
+    def drake_per_sample():
+        out = np.empty((50, 7))
+        for i in range(50):
+            plant.SetPositionsAndVelocities(context, np.concatenate((Q[i], V[i])))
+            plant.CalcForceElementsContribution(context, forces)
+            out[i] = plant.CalcInverseDynamics(context, A[i], forces)
+        return out
+
+    gap = float(np.abs(ik.torques(Q, V, A) - drake_per_sample()).max())
+    reps = max(1, n // 20)
+    id_drake = _cpu_us(drake_per_sample, reps) / 50
+    id_c = _cpu_us(lambda: ik.torques(Q, V, A), reps) / 50
+    print(f"inverse dynamics, 50 samples: Drake per sample {id_drake:.2f} us, compiled RNEA "
+          f"{id_c:.2f} us per sample; largest difference {gap:.1e} N m")
+    ok &= gap <= 1e-9
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
