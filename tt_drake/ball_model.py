@@ -26,7 +26,15 @@ from functools import lru_cache
 import numpy as np
 
 from tt_drake.constants import BALL, CONTACT, GRAVITY, NET, TABLE
-from tt_drake.flight_kernel import rk4_flight
+from tt_drake.flight_kernel import (
+    STOP_NEVER,
+    STOP_PLANE,
+    STOP_TIME,
+    UNTIL_CONTACT,
+    UNTIL_STOP,
+    flight_until,
+    rk4_flight,
+)
 
 
 @lru_cache(maxsize=1)
@@ -288,12 +296,18 @@ class BallModel:
         return abs(x) <= p.table_half_width and abs(y) <= p.table_half_length
 
     # -- prediction -----------------------------------------------------------------------------
-    def advance(self, state, stop, max_time: float, until_bounce: bool = False):
+    def advance(self, state, stop, max_time: float, until_bounce: bool = False,
+                event: tuple[int, float, float] | None = None):
         """Integrate from ``state`` until ``stop(t, pos, vel)`` changes sign from positive to
         non-positive (an event function), bouncing on the table on the way. Returns the state at
         the event (located by :meth:`_locate`) or None if the ball reaches the floor (centre below
         ``radius``) or ``max_time`` passes first. With ``until_bounce`` the first table impact
-        before the event ends it instead: its :class:`Bounce` is returned."""
+        before the event ends it instead: its :class:`Bounce` is returned.
+
+        ``event``: ``stop`` as one of the compiled flight's stop kinds, (kind, a, b) of
+        :func:`tt_drake.flight_kernel.flight_until` (a plane, a time, none), which then flies
+        between bounces in one call per flight; ``stop`` must be that function (it locates the
+        event and tests it at a bounce). None: every step in Python, for any ``stop``."""
         p = self.params
         s = np.asarray(state, dtype=float).reshape(-1)
         if s.shape != (9,) and s.shape != (6,):
@@ -314,9 +328,23 @@ class BallModel:
         # (the step goes down through the contact height) tested here, not in a call per step.
         dt, step, floor = self.dt, self.flight_step, p.radius
         contact_z = p.table_z + p.radius
+        pending = np.empty(6) if event is not None else None
         while t < max_time:
-            h = dt if max_time - t > dt else max_time - t
-            new_p, new_v = step(pos, vel, w, h)
+            if event is not None:
+                # The steps of the loop below in one compiled call, up to the first that needs
+                # Python (a step through the contact height) or ends the flight.
+                ended, t, h, *state6 = flight_until(
+                    *pos, *vel, *w, p.drag_k, p.magnus_cl, p.gravity, dt, t, max_time,
+                    contact_z, floor, event[0], event[1], event[2], pending)
+                pos, vel = tuple(state6[0:3]), tuple(state6[3:6])
+                if ended == UNTIL_STOP:
+                    return self._finish(t, pos, vel, w, h, stop, bounces)
+                if ended != UNTIL_CONTACT:
+                    return None
+                new_p, new_v = tuple(pending[0:3].tolist()), tuple(pending[3:6].tolist())
+            else:
+                h = dt if max_time - t > dt else max_time - t
+                new_p, new_v = step(pos, vel, w, h)
             impact = (self.table_impact(pos, vel, w, h, new_p, new_v)
                       if new_p[2] < contact_z <= pos[2] and new_v[2] < 0.0 else None)
             if impact is not None:
@@ -438,12 +466,13 @@ class BallModel:
         def stop(_t, q, _v):
             return side * (q[1] - plane_y)
 
-        return self.advance(s, stop, max_time)
+        return self.advance(s, stop, max_time, event=(STOP_PLANE, plane_y, side))
 
     def first_bounce(self, state, max_time: float = 3.0) -> Bounce | None:
         """The ball's first table impact from ``state`` (when, and where its centre is), or None
         if it reaches the floor (misses the table) or ``max_time`` passes first."""
-        return self.advance(state, lambda _t, _q, _v: 1.0, max_time, until_bounce=True)
+        return self.advance(state, lambda _t, _q, _v: 1.0, max_time, until_bounce=True,
+                            event=(STOP_NEVER, 0.0, 0.0))
 
     def predict_time(self, state, duration: float) -> PlaneCrossing:
         """State after ``duration`` seconds (bounces on the table included). Raises ValueError if
@@ -456,7 +485,7 @@ class BallModel:
             s = np.asarray(state, dtype=float).reshape(-1)
             w = s[6:9] if s.size == 9 else np.zeros(3)
             return PlaneCrossing(0.0, s[0:3].copy(), s[3:6].copy(), np.array(w), ())
-        hit = self.advance(state, stop, duration + 1.0)
+        hit = self.advance(state, stop, duration + 1.0, event=(STOP_TIME, duration, 0.0))
         if hit is None:
             raise ValueError(f"the ball reaches the floor before {duration} s")
         return hit

@@ -213,3 +213,55 @@ def variational_flight(pos, vel, w, dp, dv, t, duration, dt, k, c, g, contact_z,
             dv[e] = n2[e]
         t = t + h
     return 0, t, h
+
+
+#: Kinds of stop event :func:`flight_until` evaluates itself: the centre crossing a plane
+#: y = a from the side ``b`` (stop = b (y - a)), reaching the time a (stop = a - t), or none.
+STOP_PLANE, STOP_TIME, STOP_NEVER = 0, 1, 2
+#: What ended :func:`flight_until`.
+UNTIL_CONTACT, UNTIL_STOP, UNTIL_FLOOR, UNTIL_TIME = 1, 2, 3, 4
+#: flight_until's signature: the state (9), drag k, Magnus C_L, gravity, step dt, time t,
+#: max_time, the contact height, the floor height, the stop's kind and its two numbers, and the
+#: 6 values of a pending step (out); returns (what ended it, t, h, p and v at t: 6 floats).
+UNTIL_SIGNATURE = ("Tuple((int64, float64, float64, float64, float64, float64, float64, float64, "
+                   "float64))(" + ", ".join(["float64"] * 17) + ", int64, float64, float64, "
+                   "float64[:])")
+
+
+@compiled(UNTIL_SIGNATURE)
+def flight_until(px, py, pz, vx, vy, vz, wx, wy, wz, k, c, g, dt, t, max_time, contact_z, floor,
+                 kind, a, b, pending):
+    """``BallModel.advance``'s flight between bounces: RK4 steps of ``dt`` (the last shortened
+    to end at ``max_time``) from (p, v) at time ``t`` until
+
+    - UNTIL_CONTACT: a step takes the centre down through ``contact_z`` (the caller decides
+      whether it meets the table); that step's (p, v) in ``pending``;
+    - UNTIL_STOP: the stop event is <= 0 after a step (kind STOP_PLANE: b (y - a); STOP_TIME:
+      a - t);
+    - UNTIL_FLOOR: the centre falls below ``floor``;
+    - UNTIL_TIME: ``max_time`` is reached.
+
+    Returns (what ended it, t, h, p, v): the state at t, before the step of length h that ended
+    it. The steps and tests are ``advance``'s, in its order, so its results are the same."""
+    h = dt
+    while t < max_time:
+        h = dt if max_time - t > dt else max_time - t
+        npx, npy, npz, nvx, nvy, nvz = rk4_flight(px, py, pz, vx, vy, vz, wx, wy, wz, k, c, g,
+                                                   h, 1)
+        if npz < contact_z <= pz and nvz < 0.0:
+            pending[0], pending[1], pending[2] = npx, npy, npz
+            pending[3], pending[4], pending[5] = nvx, nvy, nvz
+            return UNTIL_CONTACT, t, h, px, py, pz, vx, vy, vz
+        if kind == STOP_PLANE:
+            event = b * (npy - a)
+        elif kind == STOP_TIME:
+            event = a - (t + h)
+        else:
+            event = 1.0
+        if event <= 0.0:
+            return UNTIL_STOP, t, h, px, py, pz, vx, vy, vz
+        if npz < floor:
+            return UNTIL_FLOOR, t, h, px, py, pz, vx, vy, vz
+        px, py, pz, vx, vy, vz = npx, npy, npz, nvx, nvy, nvz
+        t = t + h
+    return UNTIL_TIME, t, h, px, py, pz, vx, vy, vz

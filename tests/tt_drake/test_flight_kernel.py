@@ -98,3 +98,49 @@ def test_the_kernel_converts_what_it_is_given_to_its_declared_types():
     assert a == b
     with pytest.raises(TypeError):
         flight_kernel.rk4_flight("0", 1, 1, 0, -5, 1, 0, 0, 0, 0.1, 0.2, 9.81, 0.01, 3)
+
+
+def _states(n: int, seed: int):
+    rng = np.random.default_rng(seed)
+    for _ in range(n):
+        yield np.r_[rng.uniform(-0.8, 0.8), rng.uniform(-1.4, 1.6), rng.uniform(0.8, 1.3),
+                    rng.normal(0.0, 1.0), rng.uniform(-8.0, 2.0), rng.normal(0.0, 2.5),
+                    rng.normal(0.0, 120.0, 3)]
+
+
+DURATION = 0.37  # s: predict_time's stop in the test below
+
+
+def test_the_compiled_flight_between_bounces_is_advances_python_loop_to_the_bit():
+    """``advance`` with a compiled stop (a plane, a time, none) gives what its step-by-step Python
+    loop gives for the same stop function: the same event state, time and bounces, or None."""
+    from tt_drake.flight_kernel import STOP_NEVER, STOP_PLANE, STOP_TIME
+
+    kinds = 0
+    for state in _states(300, 7):
+        cases = []
+        for plane in (-1.82, 0.0):
+            side = 1.0 if state[1] > plane else -1.0
+
+            def stop(_t, q, _v, plane=plane, side=side):
+                return side * (q[1] - plane)
+
+            cases.append((stop, (STOP_PLANE, plane, side), False))
+        def at_time(t, _q, _v):
+            return DURATION - t
+
+        cases += [(at_time, (STOP_TIME, DURATION, 0.0), False),
+                  (lambda _t, _q, _v: 1.0, (STOP_NEVER, 0.0, 0.0), True)]
+        for stop_fn, event, until_bounce in cases:
+            slow = MODEL.advance(state, stop_fn, 2.0, until_bounce=until_bounce)
+            fast = MODEL.advance(state, stop_fn, 2.0, until_bounce=until_bounce, event=event)
+            if slow is None or fast is None:
+                assert slow is None and fast is None
+                continue
+            kinds += 1
+            if until_bounce:
+                assert (fast.t, tuple(fast.position)) == (slow.t, tuple(slow.position))
+            else:
+                assert fast.t == slow.t and len(fast.bounces) == len(slow.bounces)
+                np.testing.assert_array_equal(fast.state, slow.state)
+    assert kinds > 600  # most of the flights end at their event
