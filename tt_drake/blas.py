@@ -39,13 +39,6 @@ def pin_blas_kernels() -> None:
         os.environ.setdefault("OPENBLAS_CORETYPE", BLAS_CORE_TYPE)
 
 
-def blas_kernels() -> list[str]:
-    """The kernel family (``architecture``) of each OpenBLAS this process has loaded, e.g.
-    ``["Haswell", "Haswell"]`` for numpy's and scipy's."""
-    return [info.get("architecture", "") for info in _controller().info()
-            if info.get("internal_api") == "openblas"]
-
-
 @functools.cache
 def _controller() -> ThreadpoolController:
     # Finding the loaded libraries takes ~10 ms; limiting them again takes ~20 us.

@@ -67,7 +67,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from tt_drake.ball_model import BallModel, BallModelParams, CompliantBounceBallModel
-from tt_drake.flight_kernel import variational_flight
+from tt_drake.flight_kernel import UNTIL_CONTACT, variational_flight
 
 UNINITIALISED = 0.0
 TRACKING = 1.0
@@ -202,86 +202,6 @@ def starts_in_contact(model: BallModel, pos: tuple, vel: tuple) -> bool:
             and model.over_table(pos[0], pos[1]))
 
 
-def _jac_times(J: tuple, M: tuple, B: tuple | None = None) -> tuple[float, ...]:
-    """J M (+ [0 | B]) for a 3 x 3 J and a 3 x 6 M (row-major 9- and 18-tuples); B (3 x 3) is
-    added to the last three columns."""
-    j0, j1, j2, j3, j4, j5, j6, j7, j8 = J
-    (a0, a1, a2, a3, a4, a5, b0, b1, b2, b3, b4, b5, c0, c1, c2, c3, c4, c5) = M
-    out = (j0 * a0 + j1 * b0 + j2 * c0, j0 * a1 + j1 * b1 + j2 * c1, j0 * a2 + j1 * b2 + j2 * c2,
-           j0 * a3 + j1 * b3 + j2 * c3, j0 * a4 + j1 * b4 + j2 * c4, j0 * a5 + j1 * b5 + j2 * c5,
-           j3 * a0 + j4 * b0 + j5 * c0, j3 * a1 + j4 * b1 + j5 * c1, j3 * a2 + j4 * b2 + j5 * c2,
-           j3 * a3 + j4 * b3 + j5 * c3, j3 * a4 + j4 * b4 + j5 * c4, j3 * a5 + j4 * b5 + j5 * c5,
-           j6 * a0 + j7 * b0 + j8 * c0, j6 * a1 + j7 * b1 + j8 * c1, j6 * a2 + j7 * b2 + j8 * c2,
-           j6 * a3 + j7 * b3 + j8 * c3, j6 * a4 + j7 * b4 + j8 * c4, j6 * a5 + j7 * b5 + j8 * c5)
-    if B is None:
-        return out
-    o = list(out)
-    o[3] += B[0]
-    o[4] += B[1]
-    o[5] += B[2]
-    o[9] += B[3]
-    o[10] += B[4]
-    o[11] += B[5]
-    o[15] += B[6]
-    o[16] += B[7]
-    o[17] += B[8]
-    return tuple(o)
-
-
-def _spin_forcing(c: float, v: tuple) -> tuple[float, ...]:
-    """d(v')/d(omega) = -C_L [v]x (the Magnus term C_L omega x v = -C_L v x omega), row-major."""
-    vx, vy, vz = v
-    return (0.0, c * vz, -c * vy,
-            -c * vz, 0.0, c * vx,
-            c * vy, -c * vx, 0.0)
-
-
-def _axpy18(a: tuple, h: float, b: tuple) -> tuple[float, ...]:
-    """a + h b for 3 x 6 matrices (row-major 18-tuples)."""
-    (a0, a1, a2, a3, a4, a5, a6, a7, a8, a9, a10, a11, a12, a13, a14, a15, a16, a17) = a
-    (b0, b1, b2, b3, b4, b5, b6, b7, b8, b9, b10, b11, b12, b13, b14, b15, b16, b17) = b
-    return (a0 + h * b0, a1 + h * b1, a2 + h * b2, a3 + h * b3, a4 + h * b4, a5 + h * b5,
-            a6 + h * b6, a7 + h * b7, a8 + h * b8, a9 + h * b9, a10 + h * b10, a11 + h * b11,
-            a12 + h * b12, a13 + h * b13, a14 + h * b14, a15 + h * b15, a16 + h * b16,
-            a17 + h * b17)
-
-
-def _rk4_18(x: tuple, h6: float, k1: tuple, k2: tuple, k3: tuple, k4: tuple) -> tuple:
-    """The RK4 update x + h/6 (k1 + 2 k2 + 2 k3 + k4) of a 3 x 6 matrix (row-major
-    18-tuples), term by term in that order."""
-    return tuple([x[i] + h6 * (k1[i] + 2 * k2[i] + 2 * k3[i] + k4[i]) for i in range(18)])
-
-
-def flight_step_spin_variational(model: BallModel, pos: tuple, vel: tuple, w: tuple, h: float,
-                                 dp: tuple, dv: tuple):
-    """One RK4 flight step (``model.flight_step``, the same numbers) with the sensitivities of
-    (p, v) to the initial velocity and spin, ``dp`` and ``dv`` (3 x 6 each, row-major
-    18-tuples: columns v0, omega0). They obey the variational equation
-
-        dp' = dv,    dv' = J(v) dv + [0 | B(v)],    B(v) = -C_L [v]x
-
-    (J = d(v')/dv, :meth:`BallModel.acceleration_jacobian`; B the Magnus term's derivative by
-    the spin, constant in flight), integrated by the step's own RK4 stages: with the stage
-    velocities v_i, D_i = J(v_i) X_i + [0 | B(v_i)], X1 = dv, X2 = dv + h/2 D1,
-    X3 = dv + h/2 D2, X4 = dv + h D3,
-
-        dp+ = dp + h/6 (X1 + 2 X2 + 2 X3 + X4),    dv+ = dv + h/6 (D1 + 2 D2 + 2 D3 + D4),
-
-    the exact derivative of the RK4 step. Returns (p, v, dp, dv)."""
-    c = model.params.magnus_cl
-    hh, h6 = 0.5 * h, h / 6.0
-    jac = model.acceleration_jacobian
-    (_, v2, v3, v4), new_p, new_v = model.rk4_stages(pos, vel, w, h)
-    d1 = _jac_times(jac(vel, w), dv, _spin_forcing(c, vel))
-    x2 = _axpy18(dv, hh, d1)
-    d2 = _jac_times(jac(v2, w), x2, _spin_forcing(c, v2))
-    x3 = _axpy18(dv, hh, d2)
-    d3 = _jac_times(jac(v3, w), x3, _spin_forcing(c, v3))
-    x4 = _axpy18(dv, h, d3)
-    d4 = _jac_times(jac(v4, w), x4, _spin_forcing(c, v4))
-    return new_p, new_v, _rk4_18(dp, h6, dv, x2, x3, x4), _rk4_18(dv, h6, d1, d2, d3, d4)
-
-
 def propagate_flight_jacobian(model: BallModel, x, duration: float
                               ) -> tuple[np.ndarray, np.ndarray] | None:
     """``propagate_exact``'s state of the 9-state ``x`` (the same steps, so the same numbers) and
@@ -306,7 +226,7 @@ def propagate_flight_jacobian(model: BallModel, x, duration: float
         status, t, h = variational_flight(position, velocity, spin, dp, dv, t, duration,
                                           model.dt, p.drag_k, p.magnus_cl, p.gravity,
                                           contact_z, pending)
-        if status == 0:
+        if status != UNTIL_CONTACT:
             break
         # The step goes down through the contact height: a bounce if it meets the table.
         new_p, new_v = tuple(pending[0:3].tolist()), tuple(pending[3:6].tolist())

@@ -108,6 +108,11 @@ def last_table_contact(px, py, pz, vx, vy, vz, wx, wy, wz, k, c, g, dt, max_time
     return -1.0
 
 
+#: Kinds of stop event :func:`flight_until` evaluates itself: the centre crossing a plane
+#: y = a from the side ``b`` (stop = b (y - a)), reaching the time a (stop = a - t), or none.
+STOP_PLANE, STOP_TIME, STOP_NEVER = 0, 1, 2
+#: What ended a compiled flight (:func:`variational_flight`, :func:`flight_until`).
+UNTIL_CONTACT, UNTIL_STOP, UNTIL_FLOOR, UNTIL_TIME = 1, 2, 3, 4
 #: variational_flight's signature: position, velocity and spin (3 each), the sensitivities dp and
 #: dv (3 x 6, row-major, 18 each; position, velocity and the two sensitivities are updated in
 #: place), the time reached and the duration, the step, drag k, Magnus C_L, gravity and the
@@ -133,9 +138,10 @@ def variational_flight(pos, vel, w, dp, dv, t, duration, dt, k, c, g, contact_z,
         dp+ = dp + h/6 (X1 + 2 X2 + 2 X3 + X4),    dv+ = dv + h/6 (D1 + 2 D2 + 2 D3 + D4),
 
     the exact derivative of the RK4 step. ``pos``, ``vel``, ``dp``, ``dv`` are advanced in
-    place. Returns (0, t, h) at ``duration``; or (1, t, h) before a step of length h that takes
-    the ball's centre down through ``contact_z`` (the table's contact height: the caller decides
-    whether it meets the table), that step's p, v, dp, dv in ``pending`` (3 + 3 + 18 + 18)."""
+    place. Returns (UNTIL_TIME, t, h) at ``duration``; or (UNTIL_CONTACT, t, h) before a step of
+    length h that takes the ball's centre down through ``contact_z`` (the table's contact height:
+    the caller decides whether it meets the table), that step's p, v, dp, dv in ``pending``
+    (3 + 3 + 18 + 18)."""
     n1 = np.empty(18)
     n2 = np.empty(18)
     D = np.empty((4, 18))
@@ -180,7 +186,8 @@ def variational_flight(pos, vel, w, dp, dv, t, duration, dt, k, c, g, contact_z,
                 D[i, col] = J0 * a0 + J1 * a1 + J2 * a2
                 D[i, 6 + col] = J3 * a0 + J4 * a1 + J5 * a2
                 D[i, 12 + col] = J6 * a0 + J7 * a1 + J8 * a2
-            # + [0 | B(v)], B = -C_L [v]x, row-major.
+            # + [0 | B(v)], B = -C_L [v]x, row-major; its zero entries are added too, as the
+            # arithmetic this replaced did (-0.0 + 0.0 is +0.0).
             D[i, 4] += c * z
             D[i, 5] += -c * y
             D[i, 9] += -c * z
@@ -205,21 +212,16 @@ def variational_flight(pos, vel, w, dp, dv, t, duration, dt, k, c, g, contact_z,
             for e in range(18):
                 pending[6 + e] = n1[e]
                 pending[24 + e] = n2[e]
-            return 1, t, h
+            return UNTIL_CONTACT, t, h
         pos[0], pos[1], pos[2] = npx, npy, npz
         vel[0], vel[1], vel[2] = nvx, nvy, nvz
         for e in range(18):
             dp[e] = n1[e]
             dv[e] = n2[e]
         t = t + h
-    return 0, t, h
+    return UNTIL_TIME, t, h
 
 
-#: Kinds of stop event :func:`flight_until` evaluates itself: the centre crossing a plane
-#: y = a from the side ``b`` (stop = b (y - a)), reaching the time a (stop = a - t), or none.
-STOP_PLANE, STOP_TIME, STOP_NEVER = 0, 1, 2
-#: What ended :func:`flight_until`.
-UNTIL_CONTACT, UNTIL_STOP, UNTIL_FLOOR, UNTIL_TIME = 1, 2, 3, 4
 #: flight_until's signature: the state (9), drag k, Magnus C_L, gravity, step dt, time t,
 #: max_time, the contact height, the floor height, the stop's kind and its two numbers, and the
 #: 6 values of a pending step (out); returns (what ended it, t, h, p and v at t: 6 floats).

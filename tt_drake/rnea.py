@@ -54,11 +54,10 @@ class Chain:
 
     - ``parent`` (B,): index of the parent body, -1 for the body on the base;
     - ``joint`` (B,): the generalized coordinate its joint moves, -1 for a weld;
-    - ``rotation`` (B, 3, 3), ``translation`` (B, 3): the body's pose in its parent at q = 0
-      (R_pb(0), p_pb), and ``axis_parent`` (B, 3): the joint's axis in the parent's frame, so
-      that R_pb(q) = R_axis(axis_parent, q) R_pb(0) (a revolute joint turns b about an axis
-      fixed in p) and p_pb(q) = R_axis(axis_parent, q) (p_pb - r_p) + r_p ... expressed by the
-      point ``axis_point`` (B, 3) on the axis in the parent's frame;
+    - ``rotation`` (B, 3, 3), ``translation`` (B, 3): the body's pose in its parent at q = 0,
+      R0 and p0; ``axis_parent`` (B, 3): the joint's unit axis a in the parent's frame (zero
+      for a weld) and ``axis_point`` (B, 3): a point r on it, so that at q the pose is
+      R = R_a(q) R0, p = R_a(q) (p0 - r) + r (a revolute joint turns b about an axis fixed in p);
     - ``mass`` (B,), ``com`` (B, 3), ``inertia`` (B, 3, 3): the body's mass, centre of mass
       and rotational inertia about its origin, in its frame;
     - ``damping``, ``reflected_inertia`` (n,): per generalized coordinate.
@@ -108,6 +107,9 @@ def inverse_dynamics(Q, Qd, Qdd, parent, joint, rotation, translation, axis_pare
     dv = np.empty((B, 3))
     nn = np.empty((B, 3))
     ff = np.empty((B, 3))
+    Ra = np.empty((3, 3))
+    L = np.empty(3)  # a body's angular momentum about its origin: I w + m c x v
+    Ia = np.empty(3)  # I dw + m c x dv
     for k in range(K):
         # Poses and axes at q.
         for b in range(B):
@@ -121,7 +123,6 @@ def inverse_dynamics(Q, Qd, Qdd, parent, joint, rotation, translation, axis_pare
             ax, ay, az = axis_parent[b, 0], axis_parent[b, 1], axis_parent[b, 2]
             s, cq = math.sin(Q[k, j]), math.cos(Q[k, j])
             t = 1.0 - cq
-            Ra = np.empty((3, 3))
             Ra[0, 0] = cq + ax * ax * t
             Ra[0, 1] = ax * ay * t - az * s
             Ra[0, 2] = ax * az * t + ay * s
@@ -202,8 +203,6 @@ def inverse_dynamics(Q, Qd, Qdd, parent, joint, rotation, translation, axis_pare
             h0 = m * (v0 + (w1 * c2 - w2 * c1))  # linear momentum m (v + w x c)
             h1 = m * (v1 + (w2 * c0 - w0 * c2))
             h2 = m * (v2 + (w0 * c1 - w1 * c0))
-            L = np.empty(3)  # angular momentum about the origin: I w + m c x v
-            Ia = np.empty(3)  # I dw + m c x dv
             for r in range(3):
                 L[r] = inertia[b, r, 0] * w0 + inertia[b, r, 1] * w1 + inertia[b, r, 2] * w2
                 Ia[r] = (inertia[b, r, 0] * dw[b, 0] + inertia[b, r, 1] * dw[b, 1]
