@@ -132,15 +132,17 @@ STRATEGIES: tuple[OracleStrategy, ...] = (
 def strategy_scenario(strategy: OracleStrategy, scenario: Scenario) -> Scenario:
     """The scenario ``strategy`` plays: a copy of ``scenario`` with the strategy's perception
     (and camera noise stream) and, for a learned strategy, its shipped artefact set, played
-    without ``learned.correction_fallback`` (the caller's is left as it was)."""
+    without the stock robot's ``learned`` fallbacks and early refresh (the caller's are left as
+    they were)."""
     oracle = copy.deepcopy(scenario)
     oracle.perception = strategy.perception
     oracle.camera = dataclasses.replace(oracle.camera, noise_stream=strategy.noise_stream)
     if strategy.artefacts is not None:
-        # The set as it was trained and shipped: without the stock robot's correction fallback,
-        # so that the bound does not move with the learned player's settings (a learned return
-        # outside it is reported as such).
-        oracle.learned = LearnedPlayerConfig(correction_fallback=False)
+        # The set as it was trained and shipped: without the stock robot's fallbacks and early
+        # refresh, so that the bound does not move with the learned player's settings (a
+        # learned return outside it is reported as such).
+        oracle.learned = LearnedPlayerConfig(correction_fallback=False, stroke_fallbacks=False,
+                                             refresh_before_bounce=False)
         use_artefact_set(oracle.learned, strategy.artefacts)
     return oracle
 

@@ -239,8 +239,10 @@ def add_learned_player(builder: DiagramBuilder, world: World, controller, scenar
     # does (the plane, else along the path: tt_drake.hitting_time).
     if band is None and scenario.learned.moving_goal:
         band = HittingBand()
+    # With the moving goal on the stock robot the refresh starts before the bounce.
+    ahead = scenario.learned.moving_goal and scenario.learned.refresh_before_bounce
     predictor = builder.AddNamedSystem("hitting_point_predictor", HittingPointPredictor(
-        gpr=learned["gpr"], early=early, refresh=refresh, band=band))
+        gpr=learned["gpr"], early=early, refresh=refresh, band=band, refresh_ahead=ahead))
     builder.Connect(estimator.GetOutputPort("state"), predictor.GetInputPort("state"))
     builder.Connect(estimator.GetOutputPort("spin"), predictor.GetInputPort("spin"))
     builder.Connect(estimator.GetOutputPort("status"), predictor.GetInputPort("status"))
@@ -259,7 +261,8 @@ def add_learned_player(builder: DiagramBuilder, world: World, controller, scenar
         setpoint_lead=SETPOINT_LEAD, setpoint_period=SERVO_PERIOD,
         stimulus=None if crkr is None else crkr.stimulus,
         config=momp_config(scenario.learned.moving_goal, scenario.controller.drive_voltage,
-                           scenario.learned.correction_fallback)))
+                           scenario.learned.correction_fallback,
+                           scenario.learned.stroke_fallbacks)))
     # The measured arm: the player holds when the arm no longer follows its plan.
     builder.Connect(world.plant.get_state_output_port(world.robot),
                     player.GetInputPort("arm_state"))
@@ -270,6 +273,11 @@ def add_learned_player(builder: DiagramBuilder, world: World, controller, scenar
         # A move refused with the spin-aware racket is tried with the spinless one.
         builder.Connect(configuration.GetOutputPort("theta_dot_hit_spinless"),
                         player.GetInputPort("theta_dot_hit_spinless"))
+    if configuration.source == "analytical" and primitives:
+        # A move refused with both racket velocities may be played as another of the teacher's
+        # strokes (MoMPConfig.stroke_fallbacks).
+        builder.Connect(configuration.GetOutputPort("fallback_strokes"),
+                        player.GetInputPort("fallback_strokes"))
     add_servo_hold(builder, player.GetOutputPort("setpoint"), controller)
     return seeded
 

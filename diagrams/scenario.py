@@ -101,6 +101,15 @@ class LearnedPlayerConfig:
     # quintic correction (``MoMPConfig.correction_fallback``; docs/learned_player.md). On for
     # the stock robot; ``ideal_robot`` turns it off.
     correction_fallback: bool = True
+    # With ``correction_fallback``: when that correction is refused too, the teacher's other
+    # strokes for the prediction are tried the same way (``MoMPConfig.stroke_fallbacks``;
+    # docs/learned_player.md). On for the stock robot; ``ideal_robot`` turns it off.
+    stroke_fallbacks: bool = True
+    # With the moving goal: the physical model's refreshed predictions start at the final
+    # prediction rather than after the robot-side bounce (``HittingPointPredictor.
+    # refresh_ahead``), so the goal follows the filter's spin as it converges. On for the stock
+    # robot; ``ideal_robot`` turns it off.
+    refresh_before_bounce: bool = True
 
 
 @dataclass

@@ -21,7 +21,9 @@ Two sources, chosen at construction:
   minus the tangential part of omega x (-R n)), which the player tries when the move to
   (theta_hit, theta_dot_hit) is refused: a return that lands off target rather than a miss.
   When no spin-aware stroke is within the arm's reach and joint speeds, the configuration is the
-  spinless one (both velocity outputs equal).
+  spinless one (both velocity outputs equal). ``fallback_strokes`` offers the teacher's other
+  strokes for the same prediction (:meth:`StrokePlanner.strokes`: less of the spin compensated,
+  the ball met off the blade's centre), solved only as far as a player reads them.
 
 With ``aims`` (the rally's competitive aim, ``analytical`` source only) each ball's stroke plays
 its drawn aim as the analytical player does (:class:`tt_drake.systems.analytical_player.
@@ -36,13 +38,17 @@ Ports: inputs ``p_hit`` (3), ``v_hit`` (3), ``t_hit`` (1, absolute), ``valid`` (
 only with ``aims``) from
 :class:`tt_drake.systems.hitting_point_predictor.HittingPointPredictor`; outputs ``theta_hit``
 (7), ``theta_dot_hit`` (7), ``valid`` (1) and ``theta_dot_hit_spinless`` (7: ``theta_dot_hit``
-unless ``use_spin``). It has no state: the outputs are a function of the inputs (and, with
+unless ``use_spin``) and ``fallback_strokes`` (abstract: a :class:`FallbackStrokes`, empty for
+the ``crkr`` source). It has no state: the outputs are a function of the inputs (and, with
 ``aims``, of the seed parameter), cached by Drake until the predictor publishes another
 prediction, and solved once per prediction (the three ports share one solution), so a player
 reads the configuration of the prediction it reads, at the same tick.
 """
 
+from collections.abc import Iterator
+
 import numpy as np
+from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem
 
 from tt_drake.learned_player import ConfigurationModel
@@ -54,6 +60,37 @@ from tt_drake.systems.seed_parameter import SeedParameter
 
 SOURCES = ("crkr", "analytical")
 _NO_ANSWER = np.zeros(22)
+
+
+class FallbackStrokes:
+    """The teacher's strokes for one prediction, in its fallbacks' order
+    (:meth:`StrokePlanner.strokes`: each share of the predicted spin compensated with each
+    blade offset, then the reach points), as (theta_hit, theta_dot_hit) pairs. Solved lazily:
+    iterating solves each stroke once, the first time any iteration reaches it, and a caller
+    that stops at the first stroke it accepts solves no more. Empty without a planner."""
+
+    def __init__(self, planner: StrokePlanner | None = None, p_hit=None, v_hit=None,
+                 t_hit: float = 0.0, spin_hit=None):
+        self._solved: list[tuple[np.ndarray, np.ndarray]] = []
+        self._pending = (None if planner is None
+                         else planner.strokes(p_hit, v_hit, t_hit, spin_hit, None))
+
+    def __iter__(self) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+        i = 0
+        while True:
+            if i == len(self._solved):
+                stroke = None if self._pending is None else next(self._pending, None)
+                if stroke is None:
+                    self._pending = None
+                    return
+                self._solved.append((stroke.q_hit, stroke.qd_hit))
+            yield self._solved[i]
+            i += 1
+
+    def __deepcopy__(self, memo) -> "FallbackStrokes":
+        # A pure function of one prediction, and a generator cannot be copied: a cloned context
+        # shares it.
+        return self
 
 
 class HittingConfiguration(SeedParameter, LeafSystem):
@@ -87,12 +124,27 @@ class HittingConfiguration(SeedParameter, LeafSystem):
                              ("theta_dot_hit_spinless", 15, 22)):
             self.DeclareVectorOutputPort(name, hi - lo, self._copy(lo, hi),
                                          prerequisites_of_calc=deps)
+        self.DeclareAbstractOutputPort("fallback_strokes",
+                                       lambda: AbstractValue.Make(FallbackStrokes()),
+                                       self._fallbacks, prerequisites_of_calc=deps)
 
     def _copy(self, lo, hi):
         def calc(context, output):
             output.SetFromVector(self._answer(context)[lo:hi])
 
         return calc
+
+    def _fallbacks(self, context, output) -> None:
+        """``fallback_strokes``: the planner's strokes for the inputs' prediction, unsolved until
+        read (none for the ``crkr`` source or without a valid prediction)."""
+        if self.source != "analytical" or self._valid.Eval(context)[0] < 0.5:
+            output.set_value(FallbackStrokes())
+            return
+        spin = (self._spin.Eval(context) if self._uses_spin and self._spin.HasValue(context)
+                else np.zeros(3))
+        output.set_value(FallbackStrokes(self.planner, np.array(self._p.Eval(context)),
+                                         np.array(self._v.Eval(context)),
+                                         float(self._t.Eval(context)[0]), np.array(spin)))
 
     @property
     def aims(self) -> CompetitiveAim | None:

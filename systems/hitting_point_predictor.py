@@ -21,6 +21,12 @@ estimate taken after the robot-side bounce (the model sees no bounce left before
 plane) gives a physical prediction from the estimated state and spin, published when it moved
 more than ``refresh_tolerance`` from the published one. After that bounce the estimator knows the
 spin (docs/spin.md), which the GPR's features (four states before the bounce) cannot show.
+With ``refresh_ahead`` the refresh starts at the final prediction: every new estimate, before
+the bounce too, gives a physical prediction from the estimated state and the spin the filter
+has seen so far (the Magnus force's curvature shows every component but the one about the
+ball's direction of travel), as the teacher predicts at every frame. A moving goal then follows
+the ball's estimate in small steps as the filter's spin converges, rather than in one step of
+10-30 cm after the bounce, which the stock robot's slow base joint cannot make.
 
 Ports:
 
@@ -99,16 +105,18 @@ class HittingPointPredictor(LeafSystem):
                  early_tolerance: tuple[float, float] = (0.02, 0.01),
                  refresh: PhysicalPredictor | None = None,
                  refresh_tolerance: tuple[float, float] = (0.02, 0.01), play_again: bool = False,
-                 band=None):
+                 band=None, refresh_ahead: bool = False):
         """``play_again`` (the rally): a valid estimate of a ball flying away (v_y > 0) drops
         the prediction and the observations (``valid`` = 0), ready for the next ball. ``band``
         (a :class:`tt_drake.hitting_time.HittingBand`): the refreshed predictions choose the
         hitting point along the path as the teacher does (:func:`tt_drake.hitting_time.
         choose_hitting_point`: the plane when it serves, else where the ball falls through the
-        band's height); None: the plane crossing."""
+        band's height); None: the plane crossing. ``refresh_ahead``: the ``refresh`` starts at
+        the final prediction, not after the robot-side bounce (module docstring)."""
         super().__init__()
         self.band = band
         self.play_again = play_again
+        self.refresh_ahead = refresh_ahead
         if gpr is None and physical is None:
             physical = PhysicalPredictor()
         self.gpr, self.physical, self.early, self.refresh = gpr, physical, early, refresh
@@ -211,7 +219,7 @@ class HittingPointPredictor(LeafSystem):
         else:
             hit = choose_hitting_point(self.refresh.model, _with_spin(s, spin),
                                        self.refresh.plane_y, self.band, bounces_behind=bounces)
-        if hit is None or hit.bounces:
+        if hit is None or (hit.bounces and not self.refresh_ahead):
             return None  # the robot-side bounce is still ahead
         pred = _prediction(hit)
         # A withdrawn prediction (valid = 0) is replaced by the first legal one.

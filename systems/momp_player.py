@@ -31,7 +31,11 @@ past the re-planning thresholds, or that long after the refusal). When the hitti
 configuration also gives ``theta_dot_hit_spinless`` (the teacher's IK with the predicted spin:
 the racket without the spinning contact point's tangential term), a plan or move that does not
 fit the limits with ``theta_dot_hit`` is tried with those velocities (``MoMPStroke.spinless``);
-after such a move the stroke keeps to them until the hit. Safety: with the measured arm
+after such a move the stroke keeps to them until the hit. With ``stroke_fallbacks`` a move
+refused even as the teacher's quintic correction (``correction_fallback``) is made as the
+teacher's correction to another of its strokes for the prediction (the configuration's
+``fallback_strokes``: less of the spin compensated, the ball off the blade's centre), and
+those strokes replace the spinless racket in moves. Safety: with the measured arm
 state connected (``arm_state``), a joint faster than ``hold_speed`` times its velocity limit or
 more than ``hold_error`` from the plan (the arm no longer follows it: a saturated joint under
 the inverse-dynamics controller) ends the stroke: the player plays
@@ -49,7 +53,8 @@ paper's x = (p_hit, v_hit), or with the predicted spin at impact appended (``spi
 Ports: inputs ``p_hit`` (3), ``v_hit`` (3), ``t_hit`` (1, absolute) and ``spin_hit`` (3, needed
 only by a stimulus with spin) from the HittingPointPredictor, ``theta_hit`` (7),
 ``theta_dot_hit`` (7), ``configuration_valid`` (1) and ``theta_dot_hit_spinless`` (7, optional:
-tried when a move of the goal is refused) from HittingConfiguration, ``arm_state``
+tried when a move of the goal is refused) and ``fallback_strokes`` (abstract, optional: the
+teacher's other strokes) from HittingConfiguration, ``arm_state``
 (14: measured q, q_dot; optional, for the hold); outputs
 ``desired_state`` (14: q, q_dot) and ``desired_acceleration`` (7) for the
 InverseDynamicsController, ``stage`` (1: index into :data:`tt_drake.stages.STAGES`),
@@ -86,6 +91,7 @@ from tt_drake.stages import (
     within_effort,
 )
 from tt_drake.stimulus import PAPER_STIMULUS, compose_stimulus, stimulus_layout, stimulus_size
+from tt_drake.systems.hitting_configuration import FallbackStrokes
 from tt_drake.systems.immutable import Immutable
 from tt_drake.systems.stage_player import PlanTable, StagePlanPlayer, remaining
 
@@ -159,19 +165,31 @@ class MoMPConfig:
     # hitting DMP's moved goal can follow within the stock drives. False: the stroke keeps its
     # goal.
     correction_fallback: bool = False
+    # With ``correction_fallback``: when that correction too is refused, the teacher's other
+    # strokes for the prediction (the ``fallback_strokes`` input: less of the spin compensated,
+    # the ball met off the blade's centre, as the teacher's own refused corrections try them)
+    # are made the same way, the first that fits the limits being played (``MoMPStroke.
+    # configuration``). The stock base joint often cannot turn the committed stroke to a
+    # bounce-moved hitting point, while a stroke nearer the shoulder or tilted less can still
+    # meet the ball. These strokes take the
+    # place of the spinless racket in a refused move (``theta_dot_hit_spinless`` is then tried
+    # for a first plan only): a stroke compensating less of the spin is aimed for that spin,
+    # while the spinless racket keeps the full compensation's aim and sent its returns long or
+    # wide (docs/learned_player.md, "On the stock robot").
+    stroke_fallbacks: bool = False
 
 
 def momp_config(moving_goal: bool = False, drive_voltage: float = 0.0,
-                correction_fallback: bool = False) -> MoMPConfig:
+                correction_fallback: bool = False, stroke_fallbacks: bool = False) -> MoMPConfig:
     """The player of the paper profile, or with the hitting DMP's moving goal (the hard
     protocol's: cut-off :data:`MOVING_GOAL_CUTOFF`, effort budget
-    :data:`MOVING_GOAL_TORQUE_FRACTION`, and ``correction_fallback`` for a refused move); its
-    effort check knows drives of ``drive_voltage`` (0: ideal)."""
+    :data:`MOVING_GOAL_TORQUE_FRACTION`, and ``correction_fallback``, ``stroke_fallbacks`` for
+    a refused move); its effort check knows drives of ``drive_voltage`` (0: ideal)."""
     if not moving_goal:
         return MoMPConfig(drive_voltage=drive_voltage)
     return MoMPConfig(goal_cutoff=MOVING_GOAL_CUTOFF,
                       torque_fraction=MOVING_GOAL_TORQUE_FRACTION, drive_voltage=drive_voltage,
-                      correction_fallback=correction_fallback)
+                      correction_fallback=correction_fallback, stroke_fallbacks=stroke_fallbacks)
 
 
 class _State(Immutable):
@@ -236,6 +254,10 @@ class MoMPTrajectorySource(StagePlanPlayer):
         # Optional: the goal's velocities without the spin's contact-point term
         # (HittingConfiguration.theta_dot_hit_spinless), tried when a move of the goal is refused.
         self._qd_spinless = self.DeclareVectorInputPort("theta_dot_hit_spinless", 7)
+        # Optional: the teacher's other strokes for the prediction (HittingConfiguration's
+        # ``fallback_strokes``), read only when a move and its correction are refused.
+        self._fallback_strokes = self.DeclareAbstractInputPort(
+            "fallback_strokes", AbstractValue.Make(FallbackStrokes()))
         # The measured arm state (q, q_dot), for the hold (MoMPConfig.hold_error); optional.
         self._arm_state = self.DeclareVectorInputPort("arm_state", 14)
         self._index = self.DeclareAbstractState(AbstractValue.Make(_State(self.awaiting_plan())))
@@ -254,10 +276,12 @@ class MoMPTrajectorySource(StagePlanPlayer):
         return context.get_abstract_state(self._index).get_value()
 
     def _needs_replan(self, old: MoMPStroke | None, p_hit, t_hit, q_hit, qd_hit) -> bool:
+        """Whether the prediction or the configuration moved from those ``old`` was planned on
+        (for another of the teacher's strokes, the configuration it was played instead of)."""
         if old is None:
             return True
-        return self._moved((old.stimulus[:3], old.t_hit, old.q_hit, old.qd_hit),
-                           p_hit, t_hit, q_hit, qd_hit)
+        q, qd = (old.q_hit, old.qd_hit) if old.configuration is None else old.configuration
+        return self._moved((old.stimulus[:3], old.t_hit, q, qd), p_hit, t_hit, q_hit, qd_hit)
 
     def _moved(self, ref: tuple, p_hit, t_hit, q_hit, qd_hit) -> bool:
         """The prediction or configuration differs from ``ref = (p_hit, t_hit, theta_hit,
@@ -376,7 +400,10 @@ class MoMPTrajectorySource(StagePlanPlayer):
         # The goal's velocities tried in turn: the configuration's, then (if connected and
         # different) the racket that does not follow the spinning ball's contact point.
         tries = [(np.array(qd_hit), sticky)]
-        qd_spinless = None if sticky else self._spinless_goal(context, qd_hit)
+        # With the teacher's other strokes, those take the spinless racket's place: a stroke with
+        # less of the spin compensated is aimed for that spin, the spinless racket is not.
+        others = self.config.correction_fallback and self.config.stroke_fallbacks
+        qd_spinless = None if sticky or others else self._spinless_goal(context, qd_hit)
         if qd_spinless is not None and self._needs_replan(old.stroke, p_hit, t_hit, q_hit,
                                                           qd_spinless):
             tries.append((qd_spinless, True))
@@ -403,7 +430,35 @@ class MoMPTrajectorySource(StagePlanPlayer):
                 state.get_mutable_abstract_state(self._index).set_value(
                     _State(corrected, stroke, False, seen, spinless_move=spinless))
                 return None
+        if others:
+            played = self._other_stroke(context, now, old.plan, t_hit, q_hit, tries)
+            if played is not None:
+                corrected, q_goal, qd_goal = played
+                idx, nu = self.library.active(x)
+                stroke = MoMPStroke(x, t_hit, q_goal, qd_goal, idx, nu, old.stroke.replans + 1,
+                                    True, configuration=(np.array(q_hit), np.array(qd_hit)))
+                state.get_mutable_abstract_state(self._index).set_value(
+                    _State(corrected, stroke, False, seen))
+                return None
         state.get_mutable_abstract_state(self._index).set_value(refused)
+        return None
+
+    def _other_stroke(self, context, now: float, plan: StagePlan, t_hit: float, q_hit,
+                      tried: list) -> tuple | None:
+        """(plan, theta_hit, theta_dot_hit) of the first of the teacher's strokes for the
+        prediction (``fallback_strokes``, in its fallbacks' order) whose correction
+        (:meth:`_quintic_correction`) fits the limits, passing over the goals already ``tried``
+        (``q_hit`` with each ``(theta_dot_hit, spinless)``); None if none does or the input is
+        not connected."""
+        if not self._fallback_strokes.HasValue(context):
+            return None
+        for q_goal, qd_goal in self._fallback_strokes.Eval(context):
+            if np.array_equal(q_goal, q_hit) and any(np.array_equal(qd_goal, qd)
+                                                     for qd, _ in tried):
+                continue
+            corrected = self._quintic_correction(now, plan, t_hit, q_goal, qd_goal)
+            if corrected is not None:
+                return corrected, np.array(q_goal), np.array(qd_goal)
         return None
 
     def _fits_ahead(self, plan: StagePlan, now: float) -> bool:

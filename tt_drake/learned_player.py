@@ -230,6 +230,11 @@ class MoMPStroke:
     # The last move of the goal took the racket velocity without the spin's contact-point term
     # (``HittingConfiguration.theta_dot_hit_spinless``): the spin-aware one was refused.
     spinless: bool = False
+    # The stroke is another of the teacher's strokes for the prediction (``MoMPConfig.
+    # stroke_fallbacks``: less of the spin compensated, or the ball off the blade's centre):
+    # (theta_hit, theta_dot_hit) the hitting configuration gave, which was refused; ``q_hit``,
+    # ``qd_hit`` are the played stroke's. None: the played goal is the configuration's.
+    configuration: tuple | None = None
 
 
 def plan_momp_stroke(now: float, state, stimulus, t_hit: float, q_hit, qd_hit,

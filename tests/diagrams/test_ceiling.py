@@ -167,7 +167,8 @@ def test_a_learned_strategy_plays_the_shipped_set_with_the_oracles_perception():
     assert played.learned.library == str(shipped_artefact("library", learned.artefacts))
     assert scenario.learned.library == ""
     # the set as shipped, whatever the scenario's learned player does with a refused move
-    assert scenario.learned.correction_fallback and not played.learned.correction_fallback
+    for setting in ("correction_fallback", "stroke_fallbacks", "refresh_before_bounce"):
+        assert getattr(scenario.learned, setting) and not getattr(played.learned, setting)
     assert played.learned.moving_goal
     teacher = strategy_scenario(STRATEGIES[0], scenario)
     assert teacher.learned == scenario.learned and teacher.perception == "oracle"

@@ -2,6 +2,8 @@
 protocol's player): its racket meets the spinning ball without slip and sends it to the target;
 without ``use_spin`` the spin is ignored (the paper profile's configuration, unchanged)."""
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -116,3 +118,25 @@ def test_without_a_reachable_spin_aware_stroke_the_configuration_is_the_spinless
     for x, y in zip(*outputs, strict=True):
         np.testing.assert_allclose(x, y, atol=1e-12)
     assert outputs[0][2][0] == 1.0
+
+
+def test_fallback_strokes_are_the_teachers_strokes_after_the_configurations_own(planner):
+    """``fallback_strokes`` lists the planner's strokes for the prediction in its fallbacks'
+    order: the first is the configuration's (theta_hit, theta_dot_hit), the later ones other arm
+    configurations the planner reaches; none without a valid prediction."""
+    config = HittingConfiguration("analytical", planner=planner, use_spin=True)
+    context = config.CreateDefaultContext()
+    for name, value in (("p_hit", P_HIT), ("v_hit", V_HIT), ("t_hit", [T_HIT]),
+                        ("valid", [1.0]), ("spin_hit", SPIN)):
+        config.GetInputPort(name).FixValue(context, value)
+    strokes = list(itertools.islice(config.GetOutputPort("fallback_strokes").Eval(context), 3))
+    expected = itertools.islice(planner.strokes(P_HIT, V_HIT, T_HIT, SPIN, None), 3)
+    for (q, qd), stroke in zip(strokes, expected, strict=True):
+        np.testing.assert_array_equal(q, stroke.q_hit)
+        np.testing.assert_array_equal(qd, stroke.qd_hit)
+    np.testing.assert_array_equal(strokes[0][0], config.GetOutputPort("theta_hit").Eval(context))
+    np.testing.assert_array_equal(strokes[0][1],
+                                  config.GetOutputPort("theta_dot_hit").Eval(context))
+    assert len(strokes) == 3 and np.abs(strokes[2][0] - strokes[0][0]).max() > 1e-3
+    config.GetInputPort("valid").FixValue(context, [0.0])
+    assert list(config.GetOutputPort("fallback_strokes").Eval(context)) == []

@@ -2,10 +2,13 @@
 cut-off, a new prediction moves the stroke's goal; the paper profile's player (no cut-off) stays
 committed."""
 
+import copy
+
 import numpy as np
 
 from tt_drake.learned_player import move_hitting_goal
 from tt_drake.stages import HITTING
+from tt_drake.systems.hitting_configuration import FallbackStrokes
 from tt_drake.systems.momp_player import MoMPConfig, MoMPTrajectorySource
 
 from .test_momp_player import Q_HIT, QD_HIT, T_HIT, fix_inputs, synthetic_library
@@ -195,3 +198,83 @@ def test_a_refused_move_is_made_as_the_teachers_correction_when_asked(monkeypatc
         np.testing.assert_allclose(q, new_q, atol=1e-9)
         np.testing.assert_allclose(qd, new_qd, atol=1e-9)
         assert state.plan.stage_at(new_t - 1e-3) == HITTING
+
+
+class _Stroke:
+    def __init__(self, q_hit, qd_hit):
+        self.q_hit, self.qd_hit = q_hit, qd_hit
+
+
+class _Planner:
+    """A planner whose strokes are given, counting how many were solved."""
+
+    def __init__(self, strokes):
+        self._strokes, self.solved = strokes, 0
+
+    def strokes(self, p_hit, v_hit, t_hit, spin, previous):
+        for q, qd in self._strokes:
+            self.solved += 1
+            yield _Stroke(q, qd)
+
+
+def test_a_move_refused_as_a_correction_too_plays_the_first_other_stroke_that_fits(monkeypatch):
+    """With ``stroke_fallbacks``, a move the hitting DMP and the teacher's correction both refuse
+    (12 rad/s on joint 1 against 10) is made as the correction to the first of the teacher's
+    other strokes that fits the limits: the configuration's own goal is passed over, a second
+    too-fast stroke refused, the third played, arriving exactly at its (theta_hit,
+    theta_dot_hit) at the new t_hit, and the strokes after it never solved. The spinless
+    racket, feasible here, is not tried: the other strokes take its place (without the setting
+    it is played). The same prediction at the next tick re-plans nothing."""
+    monkeypatch.setattr("tt_drake.systems.momp_player.move_hitting_goal",
+                        _refuse_every_dmp_move)
+    new_q, new_t = Q_HIT + 0.03, T_HIT + 0.01
+    too_fast = QD_HIT.copy()
+    too_fast[0] = 12.0
+    played = (Q_HIT + 0.05, QD_HIT - 0.2)
+    strokes = [(new_q, too_fast), (Q_HIT - 0.05, too_fast), played, (Q_HIT, QD_HIT)]
+    for enabled in (False, True):
+        player, context, _, _, stimuli = _stroke_under_way(MoMPConfig(
+            goal_cutoff=0.08, correction_fallback=True, stroke_fallbacks=enabled))
+        planner = _Planner(strokes)
+        fix_inputs(player, context, stimuli[0] + 0.02, new_t, new_q, too_fast)
+        player.GetInputPort("theta_dot_hit_spinless").FixValue(context, QD_HIT - 0.1)
+        player.GetInputPort("fallback_strokes").FixValue(
+            context, FallbackStrokes(planner, stimuli[0][:3], stimuli[0][3:6], new_t,
+                                     np.zeros(3)))
+        before = player.player_state(context).plan
+        now = context.get_time() + 0.004
+        context.SetTime(now)
+        player.ExecuteForcedEvents(context)
+        state = player.player_state(context)
+        if not enabled:  # the spinless racket's move
+            assert state.refused is None and state.stroke.spinless and planner.solved == 0
+            continue
+        assert state.refused is None and state.stroke.fallback and not state.stroke.spinless
+        assert planner.solved == 3
+        np.testing.assert_array_equal(state.stroke.q_hit, played[0])
+        np.testing.assert_array_equal(state.stroke.qd_hit, played[1])
+        np.testing.assert_array_equal(state.stroke.configuration[0], new_q)
+        np.testing.assert_array_equal(state.stroke.configuration[1], too_fast)
+        for a, b in zip(before.evaluate(now), state.plan.evaluate(now), strict=True):
+            np.testing.assert_allclose(a, b, atol=1e-9)
+        q, qd, _ = state.plan.evaluate(new_t)
+        np.testing.assert_allclose(q, played[0], atol=1e-9)
+        np.testing.assert_allclose(qd, played[1], atol=1e-9)
+        context.SetTime(now + 0.004)
+        player.ExecuteForcedEvents(context)
+        assert player.player_state(context).stroke.replans == 2
+
+
+def test_fallback_strokes_are_solved_lazily_and_once():
+    """Iterating solves each stroke the first time any iteration reaches it; a second iteration
+    and a deep copy (a cloned context) solve nothing again; no planner: no strokes."""
+    strokes = [(np.full(7, float(i)), np.full(7, -float(i))) for i in range(4)]
+    planner = _Planner(strokes)
+    lazy = FallbackStrokes(planner, np.zeros(3), np.zeros(3), 0.5, np.zeros(3))
+    assert planner.solved == 0
+    first = next(iter(lazy))
+    assert planner.solved == 1 and np.array_equal(first[0], strokes[0][0])
+    assert [q[0] for q, _ in lazy] == [0.0, 1.0, 2.0, 3.0] and planner.solved == 4
+    assert [q[0] for q, _ in copy.deepcopy(lazy)] == [0.0, 1.0, 2.0, 3.0]
+    assert planner.solved == 4
+    assert list(FallbackStrokes()) == []

@@ -291,6 +291,51 @@ def test_final_prediction_follows_the_ball_after_the_robot_side_bounce():
     assert followed[-1][1][3] == pytest.approx(truth.t, abs=1e-6)
 
 
+def test_refresh_ahead_follows_the_spin_before_the_robot_side_bounce():
+    """With ``refresh_ahead`` the refresh starts at the final prediction: once the estimated spin
+    moves the physical prediction by more than the tolerance, before the robot-side bounce, the
+    published prediction is the model's own crossing from that estimate and spin; without it
+    the prediction stays the final one until the bounce is behind."""
+    physical = PhysicalPredictor()
+    model = physical.model
+    launch = np.array([-0.08, 1.57, 0.91, 1.46, -6.14, 2.17, -120.0, 0.0, 60.0])
+    frames = [model.predict_time(launch, k * PERIOD) for k in range(1, 40)]
+    frames = [c for c in frames if c.position[1] > PLANES.hitting_y + 0.1]
+    bounced = [bool(c.bounces) for c in frames]
+
+    def run(ahead, spin_from):
+        pred = HittingPointPredictor(physical=physical, refresh=PhysicalPredictor(),
+                                     refresh_ahead=ahead)
+        ctx = pred.CreateDefaultContext()
+        outs = []
+        for k, c in enumerate(frames):
+            # The filter has seen no spin until frame spin_from, then the ball's own.
+            spin = c.spin if k >= spin_from else np.zeros(3)
+            pred.GetInputPort("state").FixValue(ctx, np.r_[c.position, c.velocity])
+            pred.GetInputPort("spin").FixValue(ctx, spin)
+            pred.GetInputPort("status").FixValue(ctx, [1.0, (k + 1) * PERIOD])
+            step(pred, ctx, (k + 1) * PERIOD + PERIOD / 3)
+            outs.append((pred.GetOutputPort("final").Eval(ctx)[0],
+                         np.r_[pred.GetOutputPort("p_hit").Eval(ctx),
+                               pred.GetOutputPort("t_hit").Eval(ctx)]))
+        return outs
+
+    first_final = next(k for k, (final, _) in enumerate(run(False, len(frames))) if final)
+    seen = first_final + 1  # the spin is seen one frame after the final prediction
+    assert not bounced[seen]
+    behind, ahead = run(False, seen), run(True, seen)
+    truth = model.predict_plane(launch, PLANES.hitting_y)
+    assert np.linalg.norm(behind[first_final][1][:3] - truth.position) > 0.02
+    for k in range(first_final, len(frames)):
+        if not bounced[k]:
+            assert np.array_equal(behind[k][1], behind[first_final][1])
+        if k >= seen:  # the spinning ball's crossing, before the bounce too
+            assert ahead[k][1][:3] == pytest.approx(truth.position, abs=1e-6)
+            assert ahead[k][1][3] == pytest.approx(truth.t, abs=1e-6)
+        else:
+            assert np.array_equal(ahead[k][1], behind[k][1])
+
+
 @pytest.mark.parametrize("band", [None, HittingBand()], ids=["plane", "band"])
 def test_a_ball_bouncing_twice_on_the_robots_half_loses_its_prediction(band):
     """The rules end the hitting window at the second bounce on the receiver's half: a short
