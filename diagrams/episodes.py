@@ -350,7 +350,8 @@ def stroke_summary(stroke) -> dict | None:
             "mixture": [round(float(w), 6) for w in stroke.mixture],
             "replans": int(stroke.replans), "fallback": bool(stroke.fallback),
             **({"held": True} if stroke.held else {}),
-            **({"spinless": True} if stroke.spinless else {})}
+            **({"spinless": True} if stroke.spinless else {}),
+            **({"teacher_stroke": True} if stroke.configuration is not None else {})}
 
 
 class ServeDiagram:

@@ -171,11 +171,11 @@ class MoMPConfig:
     # are made the same way, the first that fits the limits being played (``MoMPStroke.
     # configuration``). The stock base joint often cannot turn the committed stroke to a
     # bounce-moved hitting point, while a stroke nearer the shoulder or tilted less can still
-    # meet the ball. These strokes take the
-    # place of the spinless racket in a refused move (``theta_dot_hit_spinless`` is then tried
-    # for a first plan only): a stroke compensating less of the spin is aimed for that spin,
-    # while the spinless racket keeps the full compensation's aim and sent its returns long or
-    # wide (docs/learned_player.md, "On the stock robot").
+    # meet the ball. These strokes take the place of the spinless racket in a refused move
+    # (``theta_dot_hit_spinless`` is then tried for a first plan only): a stroke compensating
+    # less of the spin is aimed for that spin, while the spinless racket keeps the full
+    # compensation's aim and sent its returns long or wide (docs/learned_player.md, "On the
+    # stock robot").
     stroke_fallbacks: bool = False
 
 

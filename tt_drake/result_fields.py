@@ -77,6 +77,13 @@ EPISODE_FIELDS: dict = {
         "replans": _scalar("how many times the stroke was planned"),
         "fallback": _scalar("the primitives' plan left the limits: the teacher's quintics "
                             "carried the stroke"),
+        "held": _scalar("present and true when the measured arm left the plan and the stroke "
+                        "was abandoned for a hold"),
+        "spinless": _scalar("present and true when the last move of the goal took the racket "
+                            "velocity without the spin's contact-point term"),
+        "teacher_stroke": _scalar("present and true when the stroke played is another of the "
+                                  "teacher's strokes for the prediction (the configuration's "
+                                  "was refused); theta_hit, theta_dot_hit are the played one's"),
         "early_prediction": _scalar("the hitting stage began before the predictor's final "
                                     "(GPR) prediction, on an early physical-model one"),
     },

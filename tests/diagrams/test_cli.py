@@ -267,7 +267,10 @@ def test_serve_json_has_provenance_the_full_scenario_and_a_fields_legend(tmp_pat
     assert legend["episodes"]["launch_state"]["units"][6:] == ["rad/s"] * 3
     # A learned player's record (stroke) and a landing: every field named too.
     stroke = stroke_summary(MoMPStroke(np.zeros(6), 0.5, np.zeros(7), np.zeros(7),
-                                       np.array([3, 4]), np.array([0.25, 0.75])))
+                                       np.array([3, 4]), np.array([0.25, 0.75]), held=True,
+                                       spinless=True,
+                                       configuration=(np.ones(7), np.ones(7))))
+    assert stroke["held"] and stroke["spinless"] and stroke["teacher_stroke"]
     record = EpisodeResult(1, [0.0] * 9, [0.0] * 7, 1.0, Outcome(
         "returned", True, True, True, (), (0.1, 0.7), 0.1, 0.4, 0.9), 0.1, stroke=stroke,
         arm={"joint_limit_excess": 0.0, "max_joint_speed": 1.0, "saturated_fraction": 0.0,

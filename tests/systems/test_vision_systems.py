@@ -247,6 +247,32 @@ def test_ball_model_matches_drake_at_the_hitting_plane():
     assert r["position_max_mm"] <= 5.0 and r["time_max_ms"] <= 2.0, r
 
 
+def _spinning_serve_frames(physical):
+    """(model, launch, frames): the model's states of a spinning serve (backspin and sidespin)
+    at every camera frame until 0.1 m before the hitting plane, its robot-side bounce among
+    them."""
+    model = physical.model
+    launch = np.array([-0.08, 1.57, 0.91, 1.46, -6.14, 2.17, -120.0, 0.0, 60.0])
+    frames = [model.predict_time(launch, k * PERIOD) for k in range(1, 40)]
+    return model, launch, [c for c in frames if c.position[1] > PLANES.hitting_y + 0.1]
+
+
+def _predictions(pred, frames, spin_at):
+    """Feed ``pred`` the frames as estimates (the estimated spin of frame k: ``spin_at(k,
+    frame)``) and return, after each, (final flag, [p_hit, t_hit])."""
+    ctx = pred.CreateDefaultContext()
+    outs = []
+    for k, c in enumerate(frames):
+        pred.GetInputPort("state").FixValue(ctx, np.r_[c.position, c.velocity])
+        pred.GetInputPort("spin").FixValue(ctx, spin_at(k, c))
+        pred.GetInputPort("status").FixValue(ctx, [1.0, (k + 1) * PERIOD])
+        step(pred, ctx, (k + 1) * PERIOD + PERIOD / 3)
+        outs.append((pred.GetOutputPort("final").Eval(ctx)[0],
+                     np.r_[pred.GetOutputPort("p_hit").Eval(ctx),
+                           pred.GetOutputPort("t_hit").Eval(ctx)]))
+    return outs
+
+
 def test_final_prediction_follows_the_ball_after_the_robot_side_bounce():
     """With a ``refresh`` predictor the final prediction is re-made from the estimated state and
     spin once the robot-side bounce is behind (and only then), when it moves more than the
@@ -254,27 +280,13 @@ def test_final_prediction_follows_the_ball_after_the_robot_side_bounce():
     sidespin) whose spin the estimator 'learns' at the bounce: before it the estimated spin is
     zero, after it the model's own."""
     physical = PhysicalPredictor()
-    model = physical.model
-    launch = np.array([-0.08, 1.57, 0.91, 1.46, -6.14, 2.17, -120.0, 0.0, 60.0])
-    frames = [model.predict_time(launch, k * PERIOD) for k in range(1, 40)]
-    frames = [c for c in frames if c.position[1] > PLANES.hitting_y + 0.1]
+    model, launch, frames = _spinning_serve_frames(physical)
     bounced = [bool(c.bounces) for c in frames]
     assert any(bounced) and not all(bounced)
 
     def run(refresh):
         pred = HittingPointPredictor(physical=physical, refresh=refresh)
-        ctx = pred.CreateDefaultContext()
-        outs = []
-        for k, c in enumerate(frames):
-            spin = c.spin if c.bounces else np.zeros(3)
-            pred.GetInputPort("state").FixValue(ctx, np.r_[c.position, c.velocity])
-            pred.GetInputPort("spin").FixValue(ctx, spin)
-            pred.GetInputPort("status").FixValue(ctx, [1.0, (k + 1) * PERIOD])
-            step(pred, ctx, (k + 1) * PERIOD + PERIOD / 3)
-            outs.append((pred.GetOutputPort("final").Eval(ctx)[0],
-                         np.r_[pred.GetOutputPort("p_hit").Eval(ctx),
-                               pred.GetOutputPort("t_hit").Eval(ctx)]))
-        return outs
+        return _predictions(pred, frames, lambda k, c: c.spin if c.bounces else np.zeros(3))
 
     held, followed = run(None), run(PhysicalPredictor())
     first_final = next(k for k, (final, _) in enumerate(held) if final == 1.0)
@@ -297,28 +309,15 @@ def test_refresh_ahead_follows_the_spin_before_the_robot_side_bounce():
     published prediction is the model's own crossing from that estimate and spin; without it
     the prediction stays the final one until the bounce is behind."""
     physical = PhysicalPredictor()
-    model = physical.model
-    launch = np.array([-0.08, 1.57, 0.91, 1.46, -6.14, 2.17, -120.0, 0.0, 60.0])
-    frames = [model.predict_time(launch, k * PERIOD) for k in range(1, 40)]
-    frames = [c for c in frames if c.position[1] > PLANES.hitting_y + 0.1]
+    model, launch, frames = _spinning_serve_frames(physical)
     bounced = [bool(c.bounces) for c in frames]
 
     def run(ahead, spin_from):
         pred = HittingPointPredictor(physical=physical, refresh=PhysicalPredictor(),
                                      refresh_ahead=ahead)
-        ctx = pred.CreateDefaultContext()
-        outs = []
-        for k, c in enumerate(frames):
-            # The filter has seen no spin until frame spin_from, then the ball's own.
-            spin = c.spin if k >= spin_from else np.zeros(3)
-            pred.GetInputPort("state").FixValue(ctx, np.r_[c.position, c.velocity])
-            pred.GetInputPort("spin").FixValue(ctx, spin)
-            pred.GetInputPort("status").FixValue(ctx, [1.0, (k + 1) * PERIOD])
-            step(pred, ctx, (k + 1) * PERIOD + PERIOD / 3)
-            outs.append((pred.GetOutputPort("final").Eval(ctx)[0],
-                         np.r_[pred.GetOutputPort("p_hit").Eval(ctx),
-                               pred.GetOutputPort("t_hit").Eval(ctx)]))
-        return outs
+        # The filter has seen no spin until frame spin_from, then the ball's own.
+        return _predictions(pred, frames,
+                            lambda k, c: c.spin if k >= spin_from else np.zeros(3))
 
     first_final = next(k for k, (final, _) in enumerate(run(False, len(frames))) if final)
     seen = first_final + 1  # the spin is seen one frame after the final prediction
