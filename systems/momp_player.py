@@ -431,7 +431,7 @@ class MoMPTrajectorySource(StagePlanPlayer):
                     _State(corrected, stroke, False, seen, spinless_move=spinless))
                 return None
         if others:
-            played = self._other_stroke(context, now, old.plan, t_hit, q_hit, tries)
+            played = self._other_stroke(context, now, old.plan, t_hit, q_hit, tries[0][0])
             if played is not None:
                 corrected, q_goal, qd_goal = played
                 idx, nu = self.library.active(x)
@@ -444,17 +444,16 @@ class MoMPTrajectorySource(StagePlanPlayer):
         return None
 
     def _other_stroke(self, context, now: float, plan: StagePlan, t_hit: float, q_hit,
-                      tried: list) -> tuple | None:
+                      qd_hit) -> tuple | None:
         """(plan, theta_hit, theta_dot_hit) of the first of the teacher's strokes for the
         prediction (``fallback_strokes``, in its fallbacks' order) whose correction
-        (:meth:`_quintic_correction`) fits the limits, passing over the goals already ``tried``
-        (``q_hit`` with each ``(theta_dot_hit, spinless)``); None if none does or the input is
-        not connected."""
+        (:meth:`_quintic_correction`) fits the limits, passing over the configuration's own
+        (``q_hit``, ``qd_hit``), already tried; None if none does or the input is not
+        connected."""
         if not self._fallback_strokes.HasValue(context):
             return None
         for q_goal, qd_goal in self._fallback_strokes.Eval(context):
-            if np.array_equal(q_goal, q_hit) and any(np.array_equal(qd_goal, qd)
-                                                     for qd, _ in tried):
+            if np.array_equal(q_goal, q_hit) and np.array_equal(qd_goal, qd_hit):
                 continue
             corrected = self._quintic_correction(now, plan, t_hit, q_goal, qd_goal)
             if corrected is not None:

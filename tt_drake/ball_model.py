@@ -82,6 +82,22 @@ def hunt_crossley_restitution(dissipation: float, impact_speed: float) -> float:
     return float(np.interp(dissipation * abs(impact_speed), dv_grid, e_grid))
 
 
+
+def event_stop(event: tuple[int, float, float]):
+    """The event function ``stop(t, pos, vel)`` of a compiled flight's stop (kind, a, b)
+    (:func:`tt_drake.flight_kernel.flight_until`): the same arithmetic, so that a Python step
+    and a compiled one agree on its sign. STOP_PLANE: b (y - a), the plane y = a approached
+    from the side b (+1 from above, -1 from below); STOP_TIME: a - t; STOP_NEVER: 1."""
+    kind, a, b = event
+    if kind == STOP_PLANE:
+        return lambda _t, q, _v: b * (q[1] - a)
+    if kind == STOP_TIME:
+        return lambda t, _q, _v: a - t
+    if kind == STOP_NEVER:
+        return lambda _t, _q, _v: 1.0
+    raise ValueError(f"unknown stop kind {kind}")
+
+
 @dataclass(frozen=True)
 class BallModelParams:
     """Everything the numpy ball model needs; defaults come from :mod:`tt_drake.constants`."""
@@ -304,10 +320,15 @@ class BallModel:
         ``radius``) or ``max_time`` passes first. With ``until_bounce`` the first table impact
         before the event ends it instead: its :class:`Bounce` is returned.
 
-        ``event``: ``stop`` as one of the compiled flight's stop kinds, (kind, a, b) of
-        :func:`tt_drake.flight_kernel.flight_until` (a plane, a time, none), which then flies
-        between bounces in one call per flight; ``stop`` must be that function (it locates the
-        event and tests it at a bounce). None: every step in Python, for any ``stop``."""
+        ``event``: instead of ``stop`` (then None), one of the compiled flight's stop kinds,
+        (kind, a, b) of :func:`tt_drake.flight_kernel.flight_until` (a plane, a time, none),
+        which then flies between bounces in one call per flight; the event function that
+        locates it and tests it at a bounce is :func:`event_stop`. None: every step in Python,
+        for any ``stop``."""
+        if event is not None:
+            if stop is not None:
+                raise ValueError("give the stop as a function or as a compiled event, not both")
+            stop = event_stop(event)
         p = self.params
         s = np.asarray(state, dtype=float).reshape(-1)
         if s.shape != (9,) and s.shape != (6,):
@@ -462,30 +483,22 @@ class BallModel:
         does not within ``max_time`` seconds or reaches the floor first."""
         s = np.asarray(state, dtype=float).reshape(-1)
         side = 1.0 if s[1] > plane_y else -1.0
-
-        def stop(_t, q, _v):
-            return side * (q[1] - plane_y)
-
-        return self.advance(s, stop, max_time, event=(STOP_PLANE, plane_y, side))
+        return self.advance(s, None, max_time, event=(STOP_PLANE, plane_y, side))
 
     def first_bounce(self, state, max_time: float = 3.0) -> Bounce | None:
         """The ball's first table impact from ``state`` (when, and where its centre is), or None
         if it reaches the floor (misses the table) or ``max_time`` passes first."""
-        return self.advance(state, lambda _t, _q, _v: 1.0, max_time, until_bounce=True,
+        return self.advance(state, None, max_time, until_bounce=True,
                             event=(STOP_NEVER, 0.0, 0.0))
 
     def predict_time(self, state, duration: float) -> PlaneCrossing:
         """State after ``duration`` seconds (bounces on the table included). Raises ValueError if
         the ball reaches the floor before then."""
-
-        def stop(t, _q, _v):
-            return duration - t
-
         if duration <= 0.0:
             s = np.asarray(state, dtype=float).reshape(-1)
             w = s[6:9] if s.size == 9 else np.zeros(3)
             return PlaneCrossing(0.0, s[0:3].copy(), s[3:6].copy(), np.array(w), ())
-        hit = self.advance(state, stop, duration + 1.0, event=(STOP_TIME, duration, 0.0))
+        hit = self.advance(state, None, duration + 1.0, event=(STOP_TIME, duration, 0.0))
         if hit is None:
             raise ValueError(f"the ball reaches the floor before {duration} s")
         return hit

@@ -27,7 +27,7 @@ with a_b the joint's unit axis and r_b a point on it (both in b's frame; zero ax
 m, c_b, I_b the body's mass, centre of mass and rotational inertia about its origin. A weld
 moves nothing and transmits the wrench. The result agrees with Drake's ``CalcInverseDynamics``
 (with the plant's force elements as applied forces) to rounding: within 1e-9 N m on the arm's
-states (``tests/tt_drake/test_rnea.py``), which is what the effort check's verdict needs (its
+states (``tests/systems/test_arm_dynamics.py``), which is what the effort check's verdict needs (its
 budgets are fractions of tens of N m).
 """
 

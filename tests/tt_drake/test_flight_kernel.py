@@ -133,7 +133,7 @@ def test_the_compiled_flight_between_bounces_is_advances_python_loop_to_the_bit(
                   (lambda _t, _q, _v: 1.0, (STOP_NEVER, 0.0, 0.0), True)]
         for stop_fn, event, until_bounce in cases:
             slow = MODEL.advance(state, stop_fn, 2.0, until_bounce=until_bounce)
-            fast = MODEL.advance(state, stop_fn, 2.0, until_bounce=until_bounce, event=event)
+            fast = MODEL.advance(state, None, 2.0, until_bounce=until_bounce, event=event)
             if slow is None or fast is None:
                 assert slow is None and fast is None
                 continue
