@@ -18,6 +18,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tt_drake.quintic_kernel import quintic_many
+
 AWAITING, PREPARATION, HITTING, FOLLOW_THROUGH = "awaiting", "preparation", "hitting", \
     "follow_through"
 STAGES = (AWAITING, PREPARATION, HITTING, FOLLOW_THROUGH)
@@ -66,16 +68,11 @@ class Quintic:
         return Quintic(self.t0, min(self.duration, t - self.t0), self.coeffs)
 
     def evaluate(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        s = min(max(t - self.t0, 0.0), self.duration)
-        c = self.coeffs
-        q = ((((c[:, 5] * s + c[:, 4]) * s + c[:, 3]) * s + c[:, 2]) * s + c[:, 1]) * s + c[:, 0]
-        v = (((5 * c[:, 5] * s + 4 * c[:, 4]) * s + 3 * c[:, 3]) * s + 2 * c[:, 2]) * s + c[:, 1]
-        a = ((20 * c[:, 5] * s + 12 * c[:, 4]) * s + 6 * c[:, 3]) * s + 2 * c[:, 2]
-        extra = t - self.t_end
-        if extra > 0.0:
-            q = q + v * extra
-            a = np.zeros_like(a)
-        return q, v, a
+        """(q, q_dot, q_ddot) at ``t``, each (n_dof,): the Horner forms of
+        :mod:`tt_drake.quintic_kernel` at s = clip(t - t0, 0, duration), continued past the end
+        at the end velocity and zero acceleration."""
+        q, v, a = quintic_many(self.coeffs, self.t0, self.duration, np.array([float(t)]))
+        return q[0], v[0], a[0]
 
     def sample(self, rate: float = 500.0) -> tuple[np.ndarray, ...]:
         """(t, q, q_dot, q_ddot) sampled over the segment at ``rate`` Hz, both ends included."""
@@ -85,14 +82,10 @@ class Quintic:
 
     def evaluate_many(self, times) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`evaluate` at every time of ``times`` (K,) at once: (q, q_dot, q_ddot), each
-        (K, n_dof), with the same operations (hence the same values) as K calls."""
-        t = np.asarray(times, dtype=float)[:, None]
-        s = np.clip(t - self.t0, 0.0, self.duration)
-        c = self.coeffs
-        q = ((((c[:, 5] * s + c[:, 4]) * s + c[:, 3]) * s + c[:, 2]) * s + c[:, 1]) * s + c[:, 0]
-        v = (((5 * c[:, 5] * s + 4 * c[:, 4]) * s + 3 * c[:, 3]) * s + 2 * c[:, 2]) * s + c[:, 1]
-        a = ((20 * c[:, 5] * s + 12 * c[:, 4]) * s + 6 * c[:, 3]) * s + 2 * c[:, 2]
-        return continue_past_end(t - self.t_end, q, v, a)
+        (K, n_dof), with the same operations (hence the same values) as K calls
+        (:func:`tt_drake.quintic_kernel.quintic_many`, compiled)."""
+        return quintic_many(self.coeffs, self.t0, self.duration,
+                            np.asarray(times, dtype=float).reshape(-1))
 
 
 def continue_past_end(extra: np.ndarray, q, v, a):

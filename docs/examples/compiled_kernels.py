@@ -1,5 +1,5 @@
-"""CPU per call of the compiled ball flight and inverse dynamics against the arithmetic they
-replace, and their agreement (docs/performance.md, "Compiled arithmetic").
+"""CPU per call of the compiled ball flight, inverse dynamics and quintic segments against the
+arithmetic they replace, and their agreement (docs/performance.md, "Compiled arithmetic").
 
     OPENBLAS_NUM_THREADS=1 python docs/examples/compiled_kernels.py [--repeats 2000]
 
@@ -8,10 +8,12 @@ replace, and their agreement (docs/performance.md, "Compiled arithmetic").
 - the backward bounce test (``hitting_time.last_robot_bounce``) against its loop of Python-float
   steps, on 200 states of balls on the robot's half;
 - the arm's inverse dynamics for a 50-sample plan segment: ``HittingIK.torques`` (compiled RNEA,
-  all samples in one call) against Drake's ``CalcInverseDynamics`` per sample.
+  all samples in one call) against Drake's ``CalcInverseDynamics`` per sample;
+- a quintic segment at 81 times and at one (``Quintic.evaluate_many``, ``Quintic.evaluate``:
+  compiled) against its numpy array expressions (``quintic_many_numpy``).
 
-Each pair is checked: the flights and the bounce times must be equal to the bit, the torques
-within 1e-9 N m; the script exits with status 1 otherwise.
+Each pair is checked: the flights, the bounce times and the quintic's values must be equal to
+the bit, the torques within 1e-9 N m; the script exits with status 1 otherwise.
 """
 
 from __future__ import annotations
@@ -25,6 +27,8 @@ from pydrake.multibody.tree import MultibodyForces
 
 from tt_drake.ball_model import BallModel
 from tt_drake.hitting_time import last_robot_bounce
+from tt_drake.quintic_kernel import quintic_many_numpy
+from tt_drake.stages import Quintic
 from tt_drake.systems.hitting_ik import HittingIK
 
 
@@ -113,6 +117,25 @@ def main(argv=None) -> int:
     print(f"inverse dynamics, 50 samples: Drake per sample {id_drake:.2f} us, compiled RNEA "
           f"{id_c:.2f} us per sample; largest difference {gap:.1e} N m")
     ok &= gap <= 1e-9
+
+    segment = Quintic.fit(0.1, 0.4, *rng.normal(size=(6, 7)))
+    times = np.linspace(0.1, 0.5, 81)
+
+    def numpy_values(at):
+        return quintic_many_numpy(segment.coeffs, segment.t0, segment.duration, at)
+
+    one = np.array([0.3])
+    same = all(np.array_equal(x, y) for x, y in zip(segment.evaluate_many(times),
+                                                     numpy_values(times), strict=True))
+    same &= all(np.array_equal(x, y[0]) for x, y in zip(segment.evaluate(0.3),
+                                                        numpy_values(one), strict=True))
+    many_np = _cpu_us(lambda: numpy_values(times), n)
+    many_c = _cpu_us(lambda: segment.evaluate_many(times), n)
+    one_np = _cpu_us(lambda: numpy_values(one), n)
+    one_c = _cpu_us(lambda: segment.evaluate(0.3), n)
+    print(f"quintic segment, 81 times: numpy {many_np:.1f} us, compiled {many_c:.1f} us; one "
+          f"time: numpy {one_np:.1f} us, compiled {one_c:.1f} us; equal to the bit: {same}")
+    ok &= same
     return 0 if ok else 1
 
 

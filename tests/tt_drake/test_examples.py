@@ -115,8 +115,9 @@ def test_the_gym_episode_timer_times_each_episode_once(tmp_path):
 
 def test_the_compiled_kernels_example_finds_them_equal_to_what_they_replace():
     """docs/examples/compiled_kernels.py checks the compiled flight and backward bounce test
-    against their Python-float arithmetic (to the bit) and the compiled inverse dynamics against
-    Drake's (1e-9 N m), exiting 0 only if all agree."""
+    against their Python-float arithmetic and the compiled quintic against its numpy
+    expressions (to the bit), and the compiled inverse dynamics against Drake's (1e-9 N m),
+    exiting 0 only if all agree."""
     spec = importlib.util.spec_from_file_location("example_kernels",
                                                   EXAMPLES / "compiled_kernels.py")
     module = importlib.util.module_from_spec(spec)

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from tt_drake.quintic_kernel import quintic_many_numpy
 from tt_drake.stages import (
     AWAITING,
     FOLLOW_THROUGH,
@@ -144,6 +145,26 @@ def test_evaluate_many_gives_the_values_of_evaluate(index):
         for got, want in zip((q[i], v[i], a[i]), seg.evaluate(t), strict=True):
             np.testing.assert_array_equal(got, want)
     assert not np.any(a[-1]) and np.any(a[1])
+
+
+def test_the_compiled_quintic_is_the_numpy_arithmetic_to_the_bit():
+    """The compiled kernel does the numpy expressions' IEEE operations in their order: equal to
+    the last bit on random segments (coefficients over six orders of magnitude) at times
+    before, inside and past them, a non-contiguous coefficient view included."""
+    rng = np.random.default_rng(11)
+    for _ in range(300):
+        scale = 10.0 ** rng.uniform(-3, 3, size=(7, 1))
+        seg = Quintic.fit(rng.uniform(-1, 3), rng.uniform(0.01, 1.5),
+                          *(scale[:, 0] * rng.normal(size=7) for _ in range(6)))
+        times = rng.uniform(seg.t0 - 0.3, seg.t_end + 0.3, rng.integers(1, 60))
+        want = quintic_many_numpy(seg.coeffs, seg.t0, seg.duration, times)
+        for got, expected in zip(seg.evaluate_many(times), want, strict=True):
+            np.testing.assert_array_equal(got, expected)
+    wide = np.asfortranarray(seg.coeffs)  # any memory layout
+    view = Quintic(seg.t0, seg.duration, wide)
+    want = quintic_many_numpy(seg.coeffs, seg.t0, seg.duration, times)
+    for got, expected in zip(view.evaluate_many(times), want, strict=True):
+        np.testing.assert_array_equal(got, expected)
 
 
 def test_a_plans_evaluate_many_gives_the_values_of_evaluate():
