@@ -36,13 +36,17 @@ after the other do not. Levers:
 - ``close-aim`` (analytical): a correction's stroke solves its one flight time's outgoing
   velocity alone against ``aim_candidates`` on that one flight time (its clearance and racket
   speed computed and not used);
-- ``teacher-all``: the last three together.
+- ``teacher-all``: the last three together;
+- ``quintic-kernel``: the quintic segments evaluated by the compiled kernel
+  (``tt_drake/quintic_kernel.py``) against its numpy array expressions (``quintic_many_numpy``;
+  for one time too).
 
 ``--perception oracle --record`` plays the serves as the paper protocol's teacher stage does
 (``tt-drake collect --perception oracle``).
 
 It also counts the serves whose outcome and episode duration are equal both ways (``did-nothing``,
-``setpoint-table``, ``hold-table``, ``momp-did-nothing`` and ``crossing-memo`` change no number;
+``setpoint-table``, ``hold-table``, ``momp-did-nothing``, ``crossing-memo`` and ``quintic-kernel``
+change no number;
 ``segments`` may move the integrator's steps, and the outcome check for it is
 ``compare_serves.py`` on 100 serves).
 """
@@ -60,6 +64,8 @@ from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.models import use_artefact_set
+from tt_drake.quintic_kernel import quintic_many_numpy
+from tt_drake.stages import Quintic
 
 _DID_NOTHING_MODULES = ("tt_drake.systems.ball_flight_estimator",
                         "tt_drake.systems.hitting_point_predictor")
@@ -147,8 +153,24 @@ def toggles(diagram: ServeDiagram) -> dict:
         for lever in (prediction_step, prediction_cutoff, close_aim):
             lever(on)
 
-    return {"prediction-step": prediction_step, "prediction-cutoff": prediction_cutoff,
-            "close-aim": close_aim, "teacher-all": teacher_all,
+    compiled = (Quintic.evaluate, Quintic.evaluate_many)
+
+    def quintic_kernel(on: bool) -> None:
+        if on:
+            Quintic.evaluate, Quintic.evaluate_many = compiled
+            return
+
+        def evaluate_many(self, times):
+            return quintic_many_numpy(self.coeffs, self.t0, self.duration, times)
+
+        def evaluate(self, t):
+            return tuple(x[0] for x in evaluate_many(self, [t]))
+
+        Quintic.evaluate, Quintic.evaluate_many = evaluate, evaluate_many
+
+    return {"quintic-kernel": quintic_kernel, "prediction-step": prediction_step,
+            "prediction-cutoff": prediction_cutoff, "close-aim": close_aim,
+            "teacher-all": teacher_all,
             "segments": segments, "did-nothing": did_nothing, "setpoint-table": setpoint_table,
             "hold-table": hold_table, "momp-did-nothing": momp_did_nothing,
             "momp-tables": momp_tables, "crossing-memo": crossing_memo, "guard": guard}
@@ -160,7 +182,7 @@ def main() -> None:
                                       "momp-did-nothing", "momp-tables", "crossing-memo",
                                       "guard",
                                       "prediction-step", "prediction-cutoff", "close-aim",
-                                      "teacher-all"))
+                                      "teacher-all", "quintic-kernel"))
     ap.add_argument("--player", default="momp")
     ap.add_argument("--serves", type=int, default=12)
     ap.add_argument("--seed", type=int, default=3)
