@@ -97,9 +97,10 @@ class LearnedPlayerConfig:
     # aim and racket law with ``spin_hit``: systems/hitting_configuration.py). Always on with the
     # moving goal; this turns it on without (a rally's learned players, docs/rally.md).
     spin_aware: bool = False
-    # With the moving goal: a move of the goal the limits refuse is made as the teacher's
-    # quintic correction (``MoMPConfig.correction_fallback``; docs/learned_player.md). On for
-    # the stock robot; ``ideal_robot`` turns it off.
+    # With the moving goal: a move of the goal, or a re-plan before the hitting stage, that the
+    # limits refuse is made as the teacher's quintic correction (``MoMPConfig.
+    # correction_fallback``; docs/learned_player.md). On for the stock robot; ``ideal_robot``
+    # turns it off.
     correction_fallback: bool = True
     # With ``correction_fallback``: when that correction is refused too, the teacher's other
     # strokes for the prediction are tried the same way (``MoMPConfig.stroke_fallbacks``;

@@ -22,7 +22,9 @@ started far from where the demonstrations started (they start at rest at q_prep)
 offender. (DMP amplitude scaling, ``eta = (g_f - y0) / A``, mirrors or amplifies the demonstrated
 shape.) If none is inside the limits the player keeps its previous plan if it has one, and
 otherwise falls back to the teacher's quintic stages (:func:`tt_drake.stages.plan_stroke`) to the
-same hitting configuration; ``MoMPStroke.fallback`` records it.
+same hitting configuration; ``MoMPStroke.fallback`` records it. With ``correction_fallback`` a
+re-plan refused while a previous plan exists takes the teacher's fallbacks of a refused move
+(below) instead of keeping that plan.
 
 With the moving goal (``goal_cutoff``) the hitting stage's goal follows new predictions until the
 cut-off (:func:`tt_drake.learned_player.move_hitting_goal`); a refused move is tried again at
@@ -157,13 +159,14 @@ class MoMPConfig:
     # error. None: off.
     hold_error: float | None = 0.6
     hold_speed: float = 1.5
-    # A move of the goal that the limits refuse (every goal velocity tried) is made as the
-    # teacher's correction instead: the quintic stages from the current desired state to the
-    # new hitting configuration (:func:`tt_drake.stages.correction_stages`), if those fit the limits
+    # A move of the goal that the limits refuse (every goal velocity tried), or a re-plan before
+    # the hitting stage whose primitive plans they refuse, is made as the teacher's correction
+    # instead: the quintic stages from the current desired state to the new hitting
+    # configuration (:func:`tt_drake.stages.correction_stages`), if those fit the limits
     # (``MoMPStroke.fallback``). The robot-side bounce shows a spinning ball's spin, and the
-    # prediction can then move by 10-30 cm with 0.2-0.3 s to go, further than the rolled-out
-    # hitting DMP's moved goal can follow within the stock drives. False: the stroke keeps its
-    # goal.
+    # prediction can then move by 10-30 cm with 0.2-0.4 s to go, further than the rolled-out
+    # hitting DMP (moved, or planned anew with a short hitting stage) can follow within the
+    # stock drives. False: the stroke keeps its goal, or its plan.
     correction_fallback: bool = False
     # With ``correction_fallback``: when that correction too is refused, the teacher's other
     # strokes for the prediction (the ``fallback_strokes`` input: less of the spin compensated,
@@ -353,7 +356,15 @@ class MoMPTrajectorySource(StagePlanPlayer):
         fallback = new is None and self.library is not None
         if new is None:
             if fallback and old.stroke is not None:
-                return  # keep the feasible plan made before
+                # The limits refused the primitives for the new prediction: the teacher's
+                # correction to it (or to another of its strokes), else keep the feasible plan
+                # made before.
+                corrected = self._teacher_fallback(context, now, plan, x, t_hit, q_hit,
+                                                   [(np.array(qd_hit), False)],
+                                                   old.stroke.replans + 1)
+                if corrected is not None:
+                    abstract.set_value(_State(*corrected, False, seen))
+                return None
             new = plan_stroke(now, plan.evaluate(now), t_hit, q_hit, qd_hit, self.q_await,
                               self.limits, self.config.times, preparing, allow_wait=False)
             if not fallback:
@@ -420,28 +431,43 @@ class MoMPTrajectorySource(StagePlanPlayer):
                 state.get_mutable_abstract_state(self._index).set_value(
                     _State(new, stroke, False, seen, spinless_move=spinless))
                 return None
-        fallbacks = tries if self.config.correction_fallback else []
-        for qd_goal, spinless in fallbacks:
-            corrected = self._quintic_correction(now, old.plan, t_hit, q_hit, qd_goal)
-            if corrected is not None:
-                idx, nu = self.library.active(x)  # the mixture that failed (MoMPStroke)
-                stroke = MoMPStroke(x, t_hit, np.array(q_hit), qd_goal, idx, nu,
-                                    old.stroke.replans + 1, True, spinless=spinless)
-                state.get_mutable_abstract_state(self._index).set_value(
-                    _State(corrected, stroke, False, seen, spinless_move=spinless))
-                return None
-        if others:
-            played = self._other_stroke(context, now, old.plan, t_hit, q_hit, tries[0][0])
-            if played is not None:
-                corrected, q_goal, qd_goal = played
-                idx, nu = self.library.active(x)
-                stroke = MoMPStroke(x, t_hit, q_goal, qd_goal, idx, nu, old.stroke.replans + 1,
-                                    True, configuration=(np.array(q_hit), np.array(qd_hit)))
-                state.get_mutable_abstract_state(self._index).set_value(
-                    _State(corrected, stroke, False, seen))
-                return None
+        corrected = self._teacher_fallback(context, now, old.plan, x, t_hit, q_hit, tries,
+                                           old.stroke.replans + 1)
+        if corrected is not None:
+            plan, stroke = corrected
+            state.get_mutable_abstract_state(self._index).set_value(
+                _State(plan, stroke, False, seen, spinless_move=stroke.spinless))
+            return None
         state.get_mutable_abstract_state(self._index).set_value(refused)
         return None
+
+    def _teacher_fallback(self, context, now: float, plan: StagePlan, x, t_hit: float, q_hit,
+                          tries: list, replans: int) -> tuple | None:
+        """With ``correction_fallback``, for a re-plan or a move of the goal whose primitive
+        plans the limits refused: (plan, stroke) of the teacher's quintic correction from the
+        current desired state to (``q_hit``, each goal velocity of ``tries`` in turn) at
+        ``t_hit`` (:meth:`_quintic_correction`), or with ``stroke_fallbacks`` then to the first
+        of the teacher's other strokes that fits (:meth:`_other_stroke`); None if none fits or
+        the fallback is off. ``tries``: (theta_dot_hit, spinless) pairs, the configuration's
+        first."""
+        if not self.config.correction_fallback:
+            return None
+        for qd_goal, spinless in tries:
+            corrected = self._quintic_correction(now, plan, t_hit, q_hit, qd_goal)
+            if corrected is not None:
+                idx, nu = self.library.active(x)  # the mixture that failed (MoMPStroke)
+                return corrected, MoMPStroke(x, t_hit, np.array(q_hit), qd_goal, idx, nu,
+                                             replans, True, spinless=spinless)
+        if not self.config.stroke_fallbacks:
+            return None
+        qd_hit = tries[0][0]
+        played = self._other_stroke(context, now, plan, t_hit, q_hit, qd_hit)
+        if played is None:
+            return None
+        corrected, q_goal, qd_goal = played
+        idx, nu = self.library.active(x)
+        return corrected, MoMPStroke(x, t_hit, q_goal, qd_goal, idx, nu, replans, True,
+                                     configuration=(np.array(q_hit), np.array(qd_hit)))
 
     def _other_stroke(self, context, now: float, plan: StagePlan, t_hit: float, q_hit,
                       qd_hit) -> tuple | None:

@@ -14,14 +14,20 @@ from tt_drake.systems.momp_player import MoMPConfig, MoMPTrajectorySource
 from .test_momp_player import Q_HIT, QD_HIT, T_HIT, fix_inputs, synthetic_library
 
 
-def _stroke_under_way(config=None):
-    """A player whose hitting stage (0.4 s before T_HIT) has begun."""
+def _stroke_preparing(config=None):
+    """A player that planned its stroke to T_HIT at 0.1 s and is preparing it."""
     library, stages, stimuli = synthetic_library()
     player = MoMPTrajectorySource(library, stages, config=config)
     context = player.CreateDefaultContext()
     fix_inputs(player, context, stimuli[0], T_HIT)
     context.SetTime(0.1)
     player.ExecuteForcedEvents(context)
+    return player, context, library, stages, stimuli
+
+
+def _stroke_under_way(config=None):
+    """A player whose hitting stage (0.4 s before T_HIT) has begun."""
+    player, context, library, stages, stimuli = _stroke_preparing(config)
     hit = next(seg for stage, seg in player.player_state(context).plan.segments
                if stage == HITTING)
     context.SetTime(hit.t0 + 0.1)
@@ -278,3 +284,53 @@ def test_fallback_strokes_are_solved_lazily_and_once():
     assert [q[0] for q, _ in copy.deepcopy(lazy)] == [0.0, 1.0, 2.0, 3.0]
     assert planner.solved == 4
     assert list(FallbackStrokes()) == []
+
+
+def _refuse_every_primitive_plan(*args, **kwargs):
+    raise ValueError("the primitive plan leaves the limits")
+
+
+def test_a_replan_refused_before_the_hitting_stage_takes_the_teachers_fallbacks(monkeypatch):
+    """Before the hitting stage, a new prediction whose primitive plans the limits refuse
+    (every hitting duration) keeps the plan made before unless ``correction_fallback`` is set;
+    with it, the teacher's quintic stages from the current desired state carry the stroke to
+    the new (theta_hit, theta_dot_hit) at the new t_hit (continuous at the re-plan, still
+    preparing), and with ``stroke_fallbacks`` a configuration too fast for the quintic too
+    (12 rad/s on joint 1) is played as the first of the teacher's other strokes that fits."""
+    new_q, new_qd, new_t = Q_HIT + 0.03, QD_HIT - 0.2, T_HIT + 0.01
+    too_fast = QD_HIT.copy()
+    too_fast[0] = 12.0
+    played = (Q_HIT + 0.05, QD_HIT - 0.2)
+    cases = ((MoMPConfig(goal_cutoff=0.08), new_qd, None),
+             (MoMPConfig(goal_cutoff=0.08, correction_fallback=True), new_qd, (new_q, new_qd)),
+             (MoMPConfig(goal_cutoff=0.08, correction_fallback=True), too_fast, None),
+             (MoMPConfig(goal_cutoff=0.08, correction_fallback=True, stroke_fallbacks=True),
+              too_fast, played))
+    for config, qd_goal, expected in cases:
+        player, context, _, _, stimuli = _stroke_preparing(config)
+        before = player.player_state(context).plan
+        monkeypatch.setattr("tt_drake.systems.momp_player.plan_momp_stroke",
+                            _refuse_every_primitive_plan)
+        fix_inputs(player, context, stimuli[0] + 0.02, new_t, new_q, qd_goal)
+        player.GetInputPort("fallback_strokes").FixValue(
+            context, FallbackStrokes(_Planner([(new_q, too_fast), played]), stimuli[0][:3],
+                                     stimuli[0][3:6], new_t, np.zeros(3)))
+        now = 0.2
+        context.SetTime(now)
+        player.ExecuteForcedEvents(context)
+        monkeypatch.undo()
+        state = player.player_state(context)
+        assert state.plan.stage_at(now) != HITTING
+        if expected is None:
+            assert state.plan is before and state.stroke.replans == 1
+            assert not state.stroke.fallback
+            continue
+        assert state.stroke.fallback and state.stroke.replans == 2
+        np.testing.assert_array_equal(state.stroke.q_hit, expected[0])
+        np.testing.assert_array_equal(state.stroke.qd_hit, expected[1])
+        assert (state.stroke.configuration is None) == (expected[1] is new_qd)
+        for a, b in zip(before.evaluate(now), state.plan.evaluate(now), strict=True):
+            np.testing.assert_allclose(a, b, atol=1e-9)
+        q, qd, _ = state.plan.evaluate(new_t)
+        np.testing.assert_allclose(q, expected[0], atol=1e-9)
+        np.testing.assert_allclose(qd, expected[1], atol=1e-9)
