@@ -137,14 +137,13 @@ class HittingConfiguration(SeedParameter, LeafSystem):
     def _fallbacks(self, context, output) -> None:
         """``fallback_strokes``: the planner's strokes for the inputs' prediction, unsolved until
         read (none for the ``crkr`` source or without a valid prediction)."""
-        if self.source != "analytical" or self._valid.Eval(context)[0] < 0.5:
+        stimulus = None if self.source != "analytical" else self._stimulus(context)
+        if stimulus is None:
             output.set_value(FallbackStrokes())
             return
-        spin = (self._spin.Eval(context) if self._uses_spin and self._spin.HasValue(context)
-                else np.zeros(3))
-        output.set_value(FallbackStrokes(self.planner, np.array(self._p.Eval(context)),
-                                         np.array(self._v.Eval(context)),
-                                         float(self._t.Eval(context)[0]), np.array(spin)))
+        spin = np.array(stimulus[7:10]) if len(stimulus) == 10 else np.zeros(3)
+        output.set_value(FallbackStrokes(self.planner, np.array(stimulus[:3]),
+                                         np.array(stimulus[3:6]), float(stimulus[6]), spin))
 
     @property
     def aims(self) -> CompetitiveAim | None:
@@ -197,14 +196,22 @@ class HittingConfiguration(SeedParameter, LeafSystem):
         return (stroke.q_hit, stroke.qd_hit,
                 self.planner.hit_velocities(stroke.q_hit, velocity))
 
+    def _stimulus(self, context) -> tuple | None:
+        """The inputs' prediction ``(p_hit, v_hit, t_hit[, spin_hit])`` as a tuple (the spin
+        when the source uses it and the input is connected); None without a valid one."""
+        if self._valid.Eval(context)[0] < 0.5:
+            return None
+        stimulus = (*self._p.Eval(context), *self._v.Eval(context), self._t.Eval(context)[0])
+        if self._uses_spin and self._spin.HasValue(context):
+            stimulus += tuple(self._spin.Eval(context))
+        return stimulus
+
     def _answer(self, context) -> np.ndarray:
         """``[theta_hit (7), theta_dot_hit (7), valid, theta_dot_hit_spinless (7)]`` for the
         inputs' prediction."""
-        if self._valid.Eval(context)[0] < 0.5:
+        stimulus = self._stimulus(context)
+        if stimulus is None:
             return _NO_ANSWER
-        stimulus = (*self._p.Eval(context), *self._v.Eval(context), self._t.Eval(context)[0])
-        if self._uses_spin:
-            stimulus += tuple(self._spin.Eval(context)) if self._spin.HasValue(context) else ()
         ball = None
         if self._aims is not None and self._balls.HasValue(context):
             ball = (self.seed(context), int(self._balls.Eval(context)[0]))

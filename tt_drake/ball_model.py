@@ -82,7 +82,6 @@ def hunt_crossley_restitution(dissipation: float, impact_speed: float) -> float:
     return float(np.interp(dissipation * abs(impact_speed), dv_grid, e_grid))
 
 
-
 def event_stop(event: tuple[int, float, float]):
     """The event function ``stop(t, pos, vel)`` of a compiled flight's stop (kind, a, b)
     (:func:`tt_drake.flight_kernel.flight_until`): the same arithmetic, so that a Python step
