@@ -31,6 +31,17 @@ answer is then re-checked with the plant's forward kinematics, and only a pose w
 1e-3 rad, inside the shrunk limits, counts as ``success``. The solver's face sign is strict:
 ``y_C`` points *along* ``n``, the forehand rubber.
 
+Requests no posture can meet fail without a solver run (:meth:`HittingIK.may_reach`). The WAM's
+wrist joints 5-7 turn about axes through one point ``W`` and its shoulder joints 1-3 about axes
+through ``S`` (DH frame 0's origin), so the blade centre is ``C = W + L z_C`` with
+``L = d_7 + RACKET.center_offset`` = 0.36 m along ``z_C``, which is perpendicular to the normal
+``y_C``, and ``|W - S|`` depends on the elbow alone: ``|W - S|² = A + B cos q4 + C sin q4``,
+inside ``[r_min, r_max]`` = [0.281, 0.855] m over the elbow's shrunk range. For a request
+``(p, n)``, with ``d = p - S`` split into ``d_n = d·n`` and ``d_t = |d - d_n n|``, the wrist
+circle ``p - L z`` (``z ⊥ n``) lies between ``sqrt(d_n² + (d_t - L)²)`` and
+``sqrt(d_n² + (d_t + L)²)`` from the shoulder; a request whose range misses ``[r_min, r_max]``
+by more than an accepted answer's slack (1e-4 m + L x 1e-3 rad, doubled) has no answer.
+
 Velocity problem (:meth:`HittingIK.joint_velocities`)
 -----------------------------------------------------
 The arm has one redundant degree of freedom. With the right pseudo-inverse
@@ -48,6 +59,7 @@ A :class:`HittingIK` owns one plant context and is not thread-safe; build one pe
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 
@@ -103,9 +115,16 @@ SPARE_SEEDS: tuple[tuple[float, ...], ...] = tuple(
 # An upper bound on the racket centre's distance from the shoulder (DH frame 0), by the triangle
 # inequality over the chain: each DH step moves d_i along z then a_i along x (perpendicular), so
 # at most sqrt(a_i^2 + d_i^2), and the blade centre is RACKET.center_offset past the flange;
-# 1.257 m (the true reach is ~1.21 m). Requests beyond it fail at once, without a solver run.
+# 1.257 m (the true reach is ~1.21 m), whatever the joint angles: the accuracy schedule's bound
+# (systems/world.py). The IK's own test of a request is tighter (HittingIK.may_reach).
 REACH_BOUND = float(sum(np.hypot(row.a, row.d) for row in wp.DH_TABLE) + wp.RACKET.center_offset)
 SHOULDER = np.array(wp.shoulder_pose_in_world()[:3, 3])
+# L: the blade centre's distance from the wrist centre W along z_C (module docstring).
+WRIST_TO_CENTRE = float(wp.DH_TABLE[6].d + wp.RACKET.center_offset)
+# How far an accepted answer's wrist circle may lie from the request's: its blade centre within
+# POSITION_TOLERANCE of p and its normal within ANGLE_TOLERANCE of n (tilting the circle by at
+# most that angle), doubled.
+_WRIST_SLACK = 2.0 * (POSITION_TOLERANCE + WRIST_TO_CENTRE * ANGLE_TOLERANCE)
 # Smallest singular value of J accepted by joint_velocities; below it the arm is singular.
 _MIN_SINGULAR_VALUE = 1e-6
 
@@ -141,6 +160,28 @@ def within_velocity_limits(qdot, limit=VELOCITY_LIMIT) -> bool:
 def velocity_limit_usage(qdot, limit=VELOCITY_LIMIT) -> float:
     """max_i |q̇_i| / limit_i: above 1 the joint-speed limit is violated."""
     return float(np.max(np.abs(np.asarray(qdot, dtype=float)) / np.asarray(limit, dtype=float)))
+
+
+def wrist_distance_range(q4_lower: float, q4_upper: float) -> tuple[float, float]:
+    """(r_min, r_max): the least and greatest |W - S|, wrist centre to shoulder centre, over
+    the elbow angles q4 in [q4_lower, q4_upper]. |W - S|² = A + B cos q4 + C sin q4 (one
+    rotation between two fixed offsets; A, B, C from the DH chain at q4 = 0, π/2, π), whose
+    extremes are the range's ends and q4* = atan2(C, B) (greatest), q4* + π (least) where
+    they lie inside it."""
+    def squared(q4: float) -> float:
+        frames = wp.dh_forward_kinematics((0.0, 0.0, 0.0, q4, 0.0, 0.0, 0.0))
+        return float(np.sum((frames[5][:3, 3] - frames[0][:3, 3]) ** 2))
+
+    at_0, at_half, at_pi = squared(0.0), squared(0.5 * np.pi), squared(np.pi)
+    a, b = 0.5 * (at_0 + at_pi), 0.5 * (at_0 - at_pi)
+    c = at_half - a
+    peak = float(np.arctan2(c, b))
+    candidates = [q4_lower, q4_upper]
+    for q4 in (peak, peak + np.pi, peak - np.pi):
+        if q4_lower <= q4 <= q4_upper:
+            candidates.append(q4)
+    values = [np.sqrt(max(a + b * np.cos(q4) + c * np.sin(q4), 0.0)) for q4 in candidates]
+    return float(min(values)), float(max(values))
 
 
 def _unit(v, name: str) -> np.ndarray:
@@ -185,6 +226,20 @@ class HittingIK:
             raise RuntimeError("SNOPT is not available in this pydrake build")
         self._options = SolverOptions()
         self._options.SetOption(SnoptSolver.id(), "Major iterations limit", SNOPT_MAJOR_ITERATIONS)
+        self.wrist_range = wrist_distance_range(self.lower[3], self.upper[3])
+
+    def may_reach(self, p_hit, normal) -> bool:
+        """False if no posture inside the shrunk limits puts the blade centre at ``p_hit``
+        facing ``normal`` (unit) within the acceptance tolerances: the wrist circle of the
+        request misses the elbow's range of |W - S| (module docstring). True does not promise
+        an answer (the other joints' limits are not looked at)."""
+        d = np.asarray(p_hit, dtype=float) - SHOULDER
+        along = float(d @ normal)
+        across = float(np.linalg.norm(d - along * normal))
+        nearest = math.hypot(along, across - WRIST_TO_CENTRE)
+        farthest = math.hypot(along, across + WRIST_TO_CENTRE)
+        r_min, r_max = self.wrist_range
+        return nearest <= r_max + _WRIST_SLACK and farthest >= r_min - _WRIST_SLACK
 
     # ----------------------------------------------------------------------------- kinematics
     def _set(self, q) -> np.ndarray:
@@ -274,8 +329,8 @@ class HittingIK:
         if q_seed is not None:
             seeds.insert(0, np.clip(np.asarray(q_seed, dtype=float).reshape(NUM_JOINTS),
                                     self.lower, self.upper))
-        if np.linalg.norm(p_hit - SHOULDER) > REACH_BOUND:
-            # Out of reach of every posture: no solver run; report the first start as a failure.
+        if not self.may_reach(p_hit, normal):
+            # No posture meets the request: no solver run; report the first start as a failure.
             seeds = seeds[:1]
             best = (0.0, seeds[0], *self._evaluate(seeds[0], p_hit, normal))
             attempts = 0

@@ -39,14 +39,17 @@ after the other do not. Levers:
 - ``teacher-all``: the last three together;
 - ``quintic-kernel``: the quintic segments evaluated by the compiled kernel
   (``tt_drake/quintic_kernel.py``) against its numpy array expressions (``quintic_many_numpy``;
-  for one time too).
+  for one time too);
+- ``wrist-test`` (analytical): the inverse kinematics refuses a request whose wrist circle misses
+  the elbow's reach without running the solver (``HittingIK.may_reach``) against the looser
+  triangle-inequality bound (``REACH_BOUND``) it replaced.
 
 ``--perception oracle --record`` plays the serves as the paper protocol's teacher stage does
 (``tt-drake collect --perception oracle``).
 
 It also counts the serves whose outcome and episode duration are equal both ways (``did-nothing``,
-``setpoint-table``, ``hold-table``, ``momp-did-nothing``, ``crossing-memo`` and ``quintic-kernel``
-change no number;
+``setpoint-table``, ``hold-table``, ``momp-did-nothing``, ``crossing-memo``, ``quintic-kernel`` and
+``wrist-test`` change no number;
 ``segments`` may move the integrator's steps, and the outcome check for it is
 ``compare_serves.py`` on 100 serves).
 """
@@ -60,12 +63,15 @@ import statistics
 import time
 import types
 
+import numpy as np
+
 from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.models import use_artefact_set
 from tt_drake.quintic_kernel import quintic_many_numpy
 from tt_drake.stages import Quintic
+from tt_drake.systems.hitting_ik import REACH_BOUND, SHOULDER, HittingIK
 
 _DID_NOTHING_MODULES = ("tt_drake.systems.ball_flight_estimator",
                         "tt_drake.systems.hitting_point_predictor")
@@ -168,7 +174,14 @@ def toggles(diagram: ServeDiagram) -> dict:
 
         Quintic.evaluate, Quintic.evaluate_many = evaluate, evaluate_many
 
-    return {"quintic-kernel": quintic_kernel, "prediction-step": prediction_step,
+    wrist_test = HittingIK.may_reach
+
+    def wrist_test_lever(on: bool) -> None:
+        HittingIK.may_reach = wrist_test if on else (
+            lambda self, p_hit, normal: bool(np.linalg.norm(p_hit - SHOULDER) <= REACH_BOUND))
+
+    return {"quintic-kernel": quintic_kernel, "wrist-test": wrist_test_lever,
+            "prediction-step": prediction_step,
             "prediction-cutoff": prediction_cutoff, "close-aim": close_aim,
             "teacher-all": teacher_all,
             "segments": segments, "did-nothing": did_nothing, "setpoint-table": setpoint_table,
@@ -182,7 +195,7 @@ def main() -> None:
                                       "momp-did-nothing", "momp-tables", "crossing-memo",
                                       "guard",
                                       "prediction-step", "prediction-cutoff", "close-aim",
-                                      "teacher-all", "quintic-kernel"))
+                                      "teacher-all", "quintic-kernel", "wrist-test"))
     ap.add_argument("--player", default="momp")
     ap.add_argument("--serves", type=int, default=12)
     ap.add_argument("--seed", type=int, default=3)

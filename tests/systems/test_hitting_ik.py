@@ -20,6 +20,8 @@ from tt_drake.constants import HITTING_REGION, PLANES, TARGET
 from tt_drake.systems import wam
 from tt_drake.systems.hitting_ik import (
     HITTING_COMFORT,
+    SHOULDER,
+    WRIST_TO_CENTRE,
     HittingIK,
     velocity_limit_usage,
     within_velocity_limits,
@@ -130,13 +132,90 @@ def test_unreachable_requests_report_failure(ik):
     far = np.array([0.3, PLANES.hitting_y + 3.0, 1.1])
     s = ik.solve(far, [0.0, 1.0, 0.0])
     assert not s.success and s.attempts == 0 and s.position_error > 2.0
-    # Just inside the reach bound but out of reach with this normal: the solver runs and fails.
-    corner = np.array([0.8, PLANES.hitting_y, 0.8])
-    s = ik.solve(corner, _toward_target(corner))
+    # Within the wrist's reach, but the shoulder's and wrist's limits forbid this low ball with
+    # the face turned up: the solver runs from every start and fails.
+    low = np.array([0.6731, -1.8364, 0.6298])
+    normal = np.array([-0.1482, 0.6554, 0.7406])
+    assert ik.may_reach(low, normal / np.linalg.norm(normal))
+    s = ik.solve(low, normal)
     assert not s.success and s.attempts >= 2
     assert s.position_error > 1e-4 or s.angle_error > 1e-3
+    corner = np.array([0.8, PLANES.hitting_y, 0.8])
     with pytest.raises(ValueError):
         ik.solve(corner, [0.0, 0.0, 0.0])
+
+
+def _wrist_and_shoulder(q):
+    frames = wp.dh_forward_kinematics(q)
+    x_w0 = wp.shoulder_pose_in_world()
+    return (x_w0 @ frames[5])[:3, 3], (x_w0 @ frames[0])[:3, 3]
+
+
+def test_the_blade_centre_is_the_wrist_centre_moved_along_z_c_and_the_elbow_sets_the_reach(ik):
+    """C = W + L z_C for any posture (the wrist's axes meet at W), and |W - S| stays inside
+    wrist_distance_range, whose ends are the extremes over the elbow's shrunk range."""
+    rng = np.random.default_rng(11)
+    r_min, r_max = ik.wrist_range
+    for q in rng.uniform(ik.lower, ik.upper, (200, 7)):
+        w, s = _wrist_and_shoulder(q)
+        x_wc = wp.racket_center_in_world(q)
+        assert np.allclose(x_wc[:3, 3] - w, WRIST_TO_CENTRE * x_wc[:3, 2], atol=1e-12)
+        assert r_min - 1e-12 <= np.linalg.norm(w - s) <= r_max + 1e-12
+    grid = np.linspace(ik.lower[3], ik.upper[3], 20001)
+    reach = [np.linalg.norm(np.subtract(*_wrist_and_shoulder((0, 0, 0, q4, 0, 0, 0))))
+             for q4 in grid]
+    assert min(reach) == pytest.approx(r_min, abs=1e-9)
+    assert max(reach) == pytest.approx(r_max, abs=1e-9)
+    # The law of cosines for the two offset links, at the straightest elbow on the grid.
+    links = (math.hypot(0.045, 0.55), math.hypot(0.045, 0.3))
+    assert r_max <= sum(links) + 1e-12 and r_max == pytest.approx(sum(links), abs=1e-3)
+
+
+def test_every_posture_passes_the_wrist_test_and_requests_beyond_it_have_no_answer(ik):
+    """The early failure is sound: the request of any posture inside the shrunk limits (the
+    arm stretched to the elbow's extremes included) may be reached; the same blade centre moved
+    5 mm outward from the shoulder with the same normal beyond the stretched arm is refused at
+    once, and the solver from every start finds no answer either."""
+    rng = np.random.default_rng(12)
+    r_min, r_max = ik.wrist_range
+    grid = np.linspace(ik.lower[3], ik.upper[3], 2001)
+    reach = [np.linalg.norm(np.subtract(*_wrist_and_shoulder((0, 0, 0, q4, 0, 0, 0))))
+             for q4 in grid]
+    stretched, folded = grid[int(np.argmax(reach))], grid[int(np.argmin(reach))]
+    postures = rng.uniform(ik.lower, ik.upper, (400, 7))
+    postures[:100, 3] = stretched
+    postures[100:150, 3] = folded
+    for q in postures:
+        x_wc = wp.racket_center_in_world(q)
+        assert ik.may_reach(x_wc[:3, 3], x_wc[:3, 1])
+    # Requests whose wrist circle stays 2-10 mm beyond the stretched arm: refused at once, and
+    # the solver, run from every start by an instance without the test, finds no answer.
+    unchecked = _WithoutWristTest()
+    beyond = []
+    while len(beyond) < 4:
+        n = rng.normal(size=3)
+        n /= np.linalg.norm(n)
+        u = rng.normal(size=3)
+        u /= np.linalg.norm(u)
+        p = SHOULDER + rng.uniform(0.9, 1.25) * u
+        d = p - SHOULDER
+        along = d @ n
+        nearest = math.hypot(along, np.linalg.norm(d - along * n) - WRIST_TO_CENTRE)
+        if 0.002 <= nearest - r_max <= 0.010:
+            beyond.append((p, n))
+    for p, n in beyond:
+        assert not ik.may_reach(p, n)
+        refused = ik.solve(p, n)
+        assert not refused.success and refused.attempts == 0
+        solved = unchecked.solve(p, n)
+        assert not solved.success and solved.attempts == len(unchecked.fallback_seeds)
+
+
+class _WithoutWristTest(HittingIK):
+    """Runs the solver on every request."""
+
+    def may_reach(self, p_hit, normal) -> bool:
+        return True
 
 
 def _fd_twist(q, qdot, h=1e-6):
