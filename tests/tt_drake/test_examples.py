@@ -123,3 +123,16 @@ def test_the_compiled_kernels_example_finds_them_equal_to_what_they_replace():
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     assert module.main(["--repeats", "20"]) == 0
+
+
+def test_the_ik_request_count_finds_the_wrist_test_behind_every_failure_without_a_solver_run():
+    """docs/examples/ik_requests.py: on three serves of seed 7 the teacher's requests the
+    wrist test refuses (hundreds) are exactly those that failed without a solver run, and every
+    request is counted once (solved, refused, or failed in the solver)."""
+    spec = importlib.util.spec_from_file_location("example_ik_requests",
+                                                  EXAMPLES / "ik_requests.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    c = module.main(["--serves", "3", "--seed", "7"])
+    assert c["requests"] == c["solved"] + c["refused_by_wrist_test"] + c["failed_in_solver"]
+    assert c["refused_by_wrist_test"] == c["outside_the_wrists_reach"] > 0
