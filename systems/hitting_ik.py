@@ -230,10 +230,11 @@ class HittingIK:
 
     def may_reach(self, p_hit, normal) -> bool:
         """False if no posture inside the shrunk limits puts the blade centre at ``p_hit``
-        facing ``normal`` (unit) within the acceptance tolerances: the wrist circle of the
-        request misses the elbow's range of |W - S| (module docstring). True does not promise
-        an answer (the other joints' limits are not looked at)."""
-        d = np.asarray(p_hit, dtype=float) - SHOULDER
+        facing ``normal`` (need not be unit) within the acceptance tolerances: the wrist circle
+        of the request misses the elbow's range of |W - S| (module docstring). True does not
+        promise an answer (the other joints' limits are not looked at)."""
+        normal = _unit(normal, "normal")
+        d = np.asarray(p_hit, dtype=float).reshape(3) - SHOULDER
         along = float(d @ normal)
         across = float(np.linalg.norm(d - along * normal))
         nearest = math.hypot(along, across - WRIST_TO_CENTRE)

@@ -19,8 +19,6 @@ import argparse
 import dataclasses
 import time
 
-import numpy as np
-
 from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
 from tt_drake.diagrams.scenario import load_scenario
@@ -38,8 +36,7 @@ def count_requests(scenario, serves: int, seed: int) -> dict:
         answer = solve(self, p_hit, normal, q_seed)
         cpu = time.process_time() - c0
         counts["requests"] += 1
-        unit = np.asarray(normal, dtype=float) / np.linalg.norm(normal)
-        counts["outside_the_wrists_reach"] += not self.may_reach(p_hit, unit)
+        counts["outside_the_wrists_reach"] += not self.may_reach(p_hit, normal)
         if answer.success:
             counts["solved"] += 1
             counts["cpu_solved"] += cpu

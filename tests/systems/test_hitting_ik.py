@@ -188,6 +188,8 @@ def test_every_posture_passes_the_wrist_test_and_requests_beyond_it_have_no_answ
     for q in postures:
         x_wc = wp.racket_center_in_world(q)
         assert ik.may_reach(x_wc[:3, 3], x_wc[:3, 1])
+    with pytest.raises(ValueError):
+        ik.may_reach(x_wc[:3, 3], np.zeros(3))
     # Requests whose wrist circle stays 2-10 mm beyond the stretched arm: refused at once, and
     # the solver, run from every start by an instance without the test, finds no answer.
     unchecked = _WithoutWristTest()
@@ -204,7 +206,7 @@ def test_every_posture_passes_the_wrist_test_and_requests_beyond_it_have_no_answ
         if 0.002 <= nearest - r_max <= 0.010:
             beyond.append((p, n))
     for p, n in beyond:
-        assert not ik.may_reach(p, n)
+        assert not ik.may_reach(p, n) and not ik.may_reach(p, 2.5 * n)  # any length of normal
         refused = ik.solve(p, n)
         assert not refused.success and refused.attempts == 0
         solved = unchecked.solve(p, n)
