@@ -151,6 +151,14 @@ def _wrist_and_shoulder(q):
     return (x_w0 @ frames[5])[:3, 3], (x_w0 @ frames[0])[:3, 3]
 
 
+def _elbow_reach(ik, samples):
+    """The elbow angles of ``samples`` evenly over its shrunk range and |W - S| at each."""
+    grid = np.linspace(ik.lower[3], ik.upper[3], samples)
+    reach = [np.linalg.norm(np.subtract(*_wrist_and_shoulder((0, 0, 0, q4, 0, 0, 0))))
+             for q4 in grid]
+    return grid, reach
+
+
 def test_the_blade_centre_is_the_wrist_centre_moved_along_z_c_and_the_elbow_sets_the_reach(ik):
     """C = W + L z_C for any posture (the wrist's axes meet at W), and |W - S| stays inside
     wrist_distance_range, whose ends are the extremes over the elbow's shrunk range."""
@@ -161,9 +169,7 @@ def test_the_blade_centre_is_the_wrist_centre_moved_along_z_c_and_the_elbow_sets
         x_wc = wp.racket_center_in_world(q)
         assert np.allclose(x_wc[:3, 3] - w, WRIST_TO_CENTRE * x_wc[:3, 2], atol=1e-12)
         assert r_min - 1e-12 <= np.linalg.norm(w - s) <= r_max + 1e-12
-    grid = np.linspace(ik.lower[3], ik.upper[3], 20001)
-    reach = [np.linalg.norm(np.subtract(*_wrist_and_shoulder((0, 0, 0, q4, 0, 0, 0))))
-             for q4 in grid]
+    _, reach = _elbow_reach(ik, 20001)
     assert min(reach) == pytest.approx(r_min, abs=1e-9)
     assert max(reach) == pytest.approx(r_max, abs=1e-9)
     # The law of cosines for the two offset links, at the straightest elbow on the grid.
@@ -173,14 +179,12 @@ def test_the_blade_centre_is_the_wrist_centre_moved_along_z_c_and_the_elbow_sets
 
 def test_every_posture_passes_the_wrist_test_and_requests_beyond_it_have_no_answer(ik):
     """The early failure is sound: the request of any posture inside the shrunk limits (the
-    arm stretched to the elbow's extremes included) may be reached; the same blade centre moved
-    5 mm outward from the shoulder with the same normal beyond the stretched arm is refused at
-    once, and the solver from every start finds no answer either."""
+    elbow at either extreme of its reach included) may be reached; a request whose wrist circle
+    lies 2-10 mm beyond the stretched arm is refused at once, whatever its normal's length, and
+    the solver from every start finds no answer either."""
     rng = np.random.default_rng(12)
     r_min, r_max = ik.wrist_range
-    grid = np.linspace(ik.lower[3], ik.upper[3], 2001)
-    reach = [np.linalg.norm(np.subtract(*_wrist_and_shoulder((0, 0, 0, q4, 0, 0, 0))))
-             for q4 in grid]
+    grid, reach = _elbow_reach(ik, 2001)
     stretched, folded = grid[int(np.argmax(reach))], grid[int(np.argmin(reach))]
     postures = rng.uniform(ik.lower, ik.upper, (400, 7))
     postures[:100, 3] = stretched
