@@ -117,6 +117,7 @@ def teacher_planner_config(scenario: Scenario) -> PlannerConfig:
     return PlannerConfig(target_x=scenario.referee.target_x, target_y=scenario.referee.target_y,
                          correction_fallbacks=scenario.teacher.correction_fallbacks,
                          plan_fallbacks=scenario.teacher.plan_fallbacks,
+                         correction_torque_fraction=scenario.teacher.correction_torque_fraction,
                          drive_voltage=scenario.controller.drive_voltage,
                          times=StageTimes(min_hitting=scenario.teacher.min_hitting))
 

@@ -118,7 +118,7 @@ class TeacherConfig:
     """The analytical player's planner settings a scenario may change
     (:class:`tt_drake.systems.analytical_player.PlannerConfig`; docs/analytical_player.md). The
     defaults are the stock robot's teacher, each chosen on its validation serves; the shipped
-    ``ideal_robot`` scenario turns all three off, the teacher its figures were made with.
+    ``ideal_robot`` scenario turns the first three off, the teacher its figures were made with.
 
     ``correction_fallbacks``: a correction of the committed stroke that the effort check refuses
     tries the planner's fallbacks in turn (less of the spin compensated, the ball met off the
@@ -127,11 +127,15 @@ class TeacherConfig:
     stroke the arm cannot reach does ("Fallbacks"). ``min_hitting`` (s): the hitting stage is
     shortened, to no less than this, where a joint's swing-back is clipped at its limit, so
     that no joint moves back past it (:func:`tt_drake.stages.hitting_duration`); 0: it always
-    lasts 0.4 s ("Stages")."""
+    lasts 0.4 s ("Stages"). ``correction_torque_fraction``: the share of the effort limits a
+    correction of the committed stroke may ask for (a first plan: 0.9, leaving the rest for
+    tracking errors); above 0.9 a correction the committed stroke's margin would refuse is
+    followed with the arm's lag instead ("Corrections"); at most 2."""
 
     correction_fallbacks: bool = True
     plan_fallbacks: bool = True
     min_hitting: float = 0.1
+    correction_torque_fraction: float = 0.9
 
 
 @dataclass
@@ -419,6 +423,7 @@ FIELD_RULES: dict[str, Check] = {
                              f"(got {v:g})")),
     "after_crossing": number(above=0.0, maximum=60.0),
     "teacher.min_hitting": number(minimum=0.0, maximum=StageTimes().hitting),
+    "teacher.correction_torque_fraction": number(above=0.0, maximum=2.0),
 }
 
 

@@ -144,6 +144,10 @@ class PlannerConfig:
     max_branch_change: float = 0.5  # rad: a re-plan moving theta_hit further is another IK branch
     research_distance: float = 0.05  # m: a hitting point this far from the last re-aims fully
     torque_fraction: float = 0.9  # of the effort limits a plan may ask for
+    # Of the effort limits a correction of the committed stroke may ask for; None:
+    # ``torque_fraction``. A correction comes late, so the arm's lag when a plan asks for the
+    # whole limit costs less than the ball the committed stroke would miss.
+    correction_torque_fraction: float | None = None
     # The drives' supply voltage (V, tt_drake.drives): a plan must also stay within
     # ``supply_fraction`` of the supply at every joint speed, and each joint within that
     # share of its no-load speed; 0: ideal drives.
@@ -244,6 +248,9 @@ class StrokePlanner:
         self.acceleration_limit = np.asarray(wp.ACCELERATION_LIMIT, dtype=float)
         self.effort_budget = EffortBudget(self.config.torque_fraction, self.drive,
                                           self.config.supply_fraction)
+        correction = self.config.correction_torque_fraction
+        self.correction_budget = (self.effort_budget if correction is None else
+                                  dataclasses.replace(self.effort_budget, fraction=correction))
         velocity = np.asarray(wp.VELOCITY_LIMIT, dtype=float)
         if self.drive is not None:
             velocity = np.minimum(velocity,
@@ -435,19 +442,22 @@ class StrokePlanner:
         """The current plan up to ``now`` and a new hitting segment from the current desired
         state to the corrected stroke's (theta_hit, theta_dot_hit) at its t_hit, then the
         follow-through and the return; None if that is not feasible for the arm (keep the
-        committed plan)."""
+        committed plan), its effort checked against :attr:`correction_budget`
+        (``correction_torque_fraction`` of the effort limits)."""
         plan = correction_stages(now, current, stroke.t_hit, stroke.q_hit, stroke.qd_hit,
                                  self.q_await, self.limits, self.config.times)
-        if plan is None or not self.feasible(plan, now):
+        if plan is None or not self.feasible(plan, now, self.correction_budget):
             return None
         return current.continued(now, plan)
 
-    def feasible(self, plan: StagePlan, now: float = -np.inf) -> bool:
+    def feasible(self, plan: StagePlan, now: float = -np.inf,
+                 budget: EffortBudget | None = None) -> bool:
         """Within the joint position, velocity and acceleration limits everywhere (sampled at
-        200 Hz), and within ``torque_fraction`` of the effort limits (and with ``drive_voltage``
-        of the drives' supply at each sample's joint speed) from ``now`` on (inverse dynamics on
-        the control plant at 50 Hz, M q_ddot + C q_dot - tau_g): the controller can then follow
-        it, with the rest of the torque left for tracking errors."""
+        200 Hz), and within ``budget`` (default :attr:`effort_budget`: ``torque_fraction`` of
+        the effort limits, and with ``drive_voltage`` ``supply_fraction`` of the drives' supply
+        at each sample's joint speed) from ``now`` on (inverse dynamics on the control plant at
+        50 Hz, M q_ddot + C q_dot - tau_g): the controller can then follow it, with the rest of
+        the torque left for tracking errors."""
         ext = plan_extremes(plan, rate=200.0)
         if not (np.all(ext["qdd_max"] <= self.acceleration_limit)
                 and np.all(ext["qd_max"] <= self.limits.velocity)
@@ -456,7 +466,7 @@ class StrokePlanner:
             return False
         if not hasattr(self.arm, "torques"):
             return True
-        return within_effort(plan, self.arm.torques, self.effort_budget, now)
+        return within_effort(plan, self.arm.torques, budget or self.effort_budget, now)
 
     def schedule(self, now: float, current: StagePlan,
                  stroke: Stroke) -> tuple[StagePlan | None, bool]:

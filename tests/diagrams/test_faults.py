@@ -134,6 +134,8 @@ def test_latency_counts_whole_frames():
     ("controller: {kp: [0, 900, 900, 900, 900, 900, 900]}", "controller.kp"),
     ("launcher: {vy_range: [-9.0, -4.0]}", "launcher.vy_range"),
     ("launcher: {x_range: [0.3, 0.1]}", "launcher.x_range"),
+    ("teacher: {correction_torque_fraction: 0.0}", "teacher.correction_torque_fraction"),
+    ("teacher: {correction_torque_fraction: 2.5}", "teacher.correction_torque_fraction"),
 ])
 def test_invalid_fault_settings_are_refused_with_the_field_name(tmp_path, text, field):
     path = write(tmp_path / "bad.yaml", text)

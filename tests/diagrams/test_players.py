@@ -60,10 +60,18 @@ def test_the_scenarios_teacher_settings_reach_the_analytical_player():
     for name, on, min_hitting in (("default", True, 0.1), ("ideal_robot", False, 0.0)):
         scenario = load_scenario(name)
         scenario.referee.target_x = -0.2
-        config = ServeDiagram(scenario, "analytical").player.planner.config
+        planner = ServeDiagram(scenario, "analytical").player.planner
+        config = planner.config
         assert config.correction_fallbacks is on and config.plan_fallbacks is on
         assert config.times.min_hitting == min_hitting
+        assert config.correction_torque_fraction == 0.9
+        assert planner.correction_budget == planner.effort_budget
         assert (config.target_x, config.target_y) == (-0.2, scenario.referee.target_y)
+    scenario = load_scenario("default")
+    scenario.teacher.correction_torque_fraction = 1.0
+    planner = ServeDiagram(scenario, "analytical").player.planner
+    assert planner.correction_budget.fraction == 1.0 and planner.effort_budget.fraction == 0.9
+    assert planner.correction_budget.drive == planner.effort_budget.drive is not None
 
 
 def test_the_scenarios_drives_reach_every_players_effort_check(tmp_path):

@@ -164,3 +164,25 @@ def test_a_first_plan_the_arm_refuses_falls_back_when_asked(fallbacks):
     np.testing.assert_allclose(q_end, stroke.q_hit, atol=1e-9)
     np.testing.assert_allclose(qd_end, stroke.qd_hit, atol=1e-9)
     assert np.abs(np.diff(q, axis=0)).max() < 10.0 * 2e-3
+
+
+def test_corrections_are_checked_against_their_own_share_of_the_effort_limits():
+    """``correction_torque_fraction`` is the effort check of a correction only: with a share
+    no motion can keep (1e-3 of the limits) every correction is refused and the committed
+    stroke is played as planned, while the first plan, checked against ``torque_fraction``, is
+    the one the default planner makes; unset, corrections share the first plan's budget."""
+    kept_player, kept_context, _ = run_serve(0.0)
+    kept = kept_player.player_state(kept_context)
+    strict = StrokePlanner(config=PlannerConfig(correction_torque_fraction=1e-3))
+    assert strict.correction_budget.fraction == 1e-3
+    assert strict.effort_budget.fraction == strict.config.torque_fraction == 0.9
+    player, context, _ = run_serve(np.array([40.0, 0.0, 0.0]), AnalyticalPlayer(strict))
+    state = player.player_state(context)
+    assert state.committed
+    np.testing.assert_array_equal(state.stroke.q_hit, kept.stroke.q_hit)
+    assert len([seg for stage, seg in state.plan.segments if stage == HITTING]) == 1
+    # The same correction passes the default planner's check (the test above corrects).
+    default, context, _ = run_serve(np.array([40.0, 0.0, 0.0]))
+    assert np.abs(default.player_state(context).stroke.q_hit - kept.stroke.q_hit).max() > 1e-3
+    shared = StrokePlanner(config=PlannerConfig(torque_fraction=0.8))
+    assert shared.correction_budget == shared.effort_budget
