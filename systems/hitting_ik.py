@@ -104,6 +104,11 @@ _SOLVER_ANGLE_BOUND = 5e-4  # rad
 # start spends creeping along an infeasible boundary (in the reachability sweep it cut the worst
 # request from ~240 ms to ~40 ms without losing any of the 431 reachable requests; 50 lost three).
 SNOPT_MAJOR_ITERATIONS = 100
+#: SNOPT's options for every solve: the major-iteration cap above, and major print level 0.
+#: At its default level SNOPT formats a log line at every major iteration although no print
+#: file is open; the iterates do not depend on it, and a solve costs about a quarter less
+#: (docs/performance.md, "The teacher").
+SNOPT_OPTIONS = {"Major iterations limit": SNOPT_MAJOR_ITERATIONS, "Major print level": 0}
 DEFAULT_NULL_GAIN = 1.0  # 1/s, k in the null-space term of joint_velocities
 # Spare starting postures for the IK after the comfort and AWAITING starts fail: four fixed draws
 # from the middle half of each joint's range (seeded, so every run tries the same ones). SNOPT
@@ -224,8 +229,9 @@ class HittingIK:
         self._solver = SnoptSolver()
         if not self._solver.available():
             raise RuntimeError("SNOPT is not available in this pydrake build")
-        self._options = SolverOptions()
-        self._options.SetOption(SnoptSolver.id(), "Major iterations limit", SNOPT_MAJOR_ITERATIONS)
+        self.solver_options = SolverOptions()
+        for name, value in SNOPT_OPTIONS.items():
+            self.solver_options.SetOption(SnoptSolver.id(), name, value)
         self.wrist_range = wrist_distance_range(self.lower[3], self.upper[3])
 
     def may_reach(self, p_hit, normal) -> bool:
@@ -291,7 +297,7 @@ class HittingIK:
         prog = ik.get_mutable_prog()
         prog.AddBoundingBoxConstraint(self.lower, self.upper, q)
         prog.AddQuadraticErrorCost(np.diag(self.weights), self.comfort, q)
-        result = self._solver.Solve(prog, seed, self._options)
+        result = self._solver.Solve(prog, seed, self.solver_options)
         return np.asarray(result.GetSolution(q), dtype=float)
 
     def _multistart(self, p_hit, normal, seeds) -> tuple[tuple, int]:

@@ -43,13 +43,15 @@ after the other do not. Levers:
 - ``wrist-test`` (analytical): the inverse kinematics refuses a request whose wrist circle misses
   the elbow's reach without running the solver (``HittingIK.may_reach``) against the looser
   triangle-inequality bound (``REACH_BOUND``) it replaced.
+- ``snopt-quiet``: the inverse kinematics' SNOPT at major print level 0
+  (``hitting_ik.SNOPT_OPTIONS``) against its default level (the iteration cap alone).
 
 ``--perception oracle --record`` plays the serves as the paper protocol's teacher stage does
 (``tt-drake collect --perception oracle``).
 
 It also counts the serves whose outcome and episode duration are equal both ways (``did-nothing``,
-``setpoint-table``, ``hold-table``, ``momp-did-nothing``, ``crossing-memo``, ``quintic-kernel`` and
-``wrist-test`` change no number;
+``setpoint-table``, ``hold-table``, ``momp-did-nothing``, ``crossing-memo``, ``quintic-kernel``,
+``wrist-test`` and ``snopt-quiet`` change no number;
 ``segments`` may move the integrator's steps, and the outcome check for it is
 ``compare_serves.py`` on 100 serves).
 """
@@ -64,6 +66,7 @@ import time
 import types
 
 import numpy as np
+from pydrake.solvers import SnoptSolver, SolverOptions
 
 from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
@@ -71,7 +74,12 @@ from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.models import use_artefact_set
 from tt_drake.quintic_kernel import quintic_many_numpy
 from tt_drake.stages import Quintic
-from tt_drake.systems.hitting_ik import REACH_BOUND, SHOULDER, HittingIK
+from tt_drake.systems.hitting_ik import (
+    REACH_BOUND,
+    SHOULDER,
+    SNOPT_MAJOR_ITERATIONS,
+    HittingIK,
+)
 
 _DID_NOTHING_MODULES = ("tt_drake.systems.ball_flight_estimator",
                         "tt_drake.systems.hitting_point_predictor")
@@ -180,7 +188,20 @@ def toggles(diagram: ServeDiagram) -> dict:
         HittingIK.may_reach = wrist_test if on else (
             lambda self, p_hit, normal: bool(np.linalg.norm(p_hit - SHOULDER) <= REACH_BOUND))
 
+    planners = [diagram.diagram.GetSubsystemByName(name).planner
+                for name in ("analytical_player", "hitting_configuration")
+                if diagram.diagram.HasSubsystemNamed(name)]
+    arms = [planner.arm for planner in planners if planner is not None]  # a CrKR source has none
+    quiet = [arm.solver_options for arm in arms]
+    loud = SolverOptions()
+    loud.SetOption(SnoptSolver.id(), "Major iterations limit", SNOPT_MAJOR_ITERATIONS)
+
+    def snopt_quiet(on: bool) -> None:
+        for arm, options in zip(arms, quiet, strict=True):
+            arm.solver_options = options if on else loud
+
     return {"quintic-kernel": quintic_kernel, "wrist-test": wrist_test_lever,
+            "snopt-quiet": snopt_quiet,
             "prediction-step": prediction_step,
             "prediction-cutoff": prediction_cutoff, "close-aim": close_aim,
             "teacher-all": teacher_all,
@@ -195,7 +216,8 @@ def main() -> None:
                                       "momp-did-nothing", "momp-tables", "crossing-memo",
                                       "guard",
                                       "prediction-step", "prediction-cutoff", "close-aim",
-                                      "teacher-all", "quintic-kernel", "wrist-test"))
+                                      "teacher-all", "quintic-kernel", "wrist-test",
+                                      "snopt-quiet"))
     ap.add_argument("--player", default="momp")
     ap.add_argument("--serves", type=int, default=12)
     ap.add_argument("--seed", type=int, default=3)

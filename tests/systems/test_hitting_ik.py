@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from pydrake.solvers import SnoptSolver, SolverOptions
 
 from tt_drake import wam_params as wp
 from tt_drake.constants import HITTING_REGION, PLANES, TARGET
@@ -21,6 +22,7 @@ from tt_drake.systems import wam
 from tt_drake.systems.hitting_ik import (
     HITTING_COMFORT,
     SHOULDER,
+    SNOPT_MAJOR_ITERATIONS,
     WRIST_TO_CENTRE,
     HittingIK,
     velocity_limit_usage,
@@ -126,6 +128,28 @@ def test_warm_start_from_a_neighbouring_answer(ik):
     second = ik.solve(p2, _toward_target(p2), q_seed=first.q)
     assert second.success and second.attempts == 1
     assert np.max(np.abs(second.q - first.q)) < 0.2  # same branch, small step
+
+
+def test_snopts_print_level_does_not_change_an_answer(ik):
+    """The solver runs at major print level 0 (``SNOPT_OPTIONS``): with the default level, the
+    same requests, from the comfort start and warm-started from a neighbour's answer, give the
+    same answers to the last bit, and a request the solver fails on from every start fails
+    the same way."""
+    loud = HittingIK()
+    loud.solver_options = SolverOptions()
+    loud.solver_options.SetOption(SnoptSolver.id(), "Major iterations limit",
+                                  SNOPT_MAJOR_ITERATIONS)
+    assert ik.solver_options.options["SNOPT"]["Major print level"] == 0
+    requests = _requests(12, seed=11)
+    # Within the wrist's reach, outside the joint limits' (test below): every start fails.
+    requests.append((np.array([0.6731, -1.8364, 0.6298]), np.array([-0.1482, 0.6554, 0.7406])))
+    previous = None
+    for p, n in requests:
+        quiet, default = ik.solve(p, n, q_seed=previous), loud.solve(p, n, q_seed=previous)
+        np.testing.assert_array_equal(quiet.q, default.q)
+        assert (quiet.success, quiet.attempts) == (default.success, default.attempts)
+        previous = quiet.q
+    assert not quiet.success and quiet.attempts >= 2
 
 
 def test_unreachable_requests_report_failure(ik):
