@@ -466,7 +466,8 @@ class StrokePlanner:
             return False
         if not hasattr(self.arm, "torques"):
             return True
-        return within_effort(plan, self.arm.torques, budget or self.effort_budget, now)
+        budget = self.effort_budget if budget is None else budget
+        return within_effort(plan, self.arm.torques, budget, now)
 
     def schedule(self, now: float, current: StagePlan,
                  stroke: Stroke) -> tuple[StagePlan | None, bool]:
