@@ -189,6 +189,14 @@ def wrist_distance_range(q4_lower: float, q4_upper: float) -> tuple[float, float
     return float(min(values)), float(max(values))
 
 
+def snopt_options(settings: dict | None = None) -> SolverOptions:
+    """Drake's ``SolverOptions`` holding ``settings`` for SNOPT (default :data:`SNOPT_OPTIONS`)."""
+    options = SolverOptions()
+    for name, value in (SNOPT_OPTIONS if settings is None else settings).items():
+        options.SetOption(SnoptSolver.id(), name, value)
+    return options
+
+
 def _unit(v, name: str) -> np.ndarray:
     v = np.asarray(v, dtype=float).reshape(3)
     norm = float(np.linalg.norm(v))
@@ -229,9 +237,7 @@ class HittingIK:
         self._solver = SnoptSolver()
         if not self._solver.available():
             raise RuntimeError("SNOPT is not available in this pydrake build")
-        self.solver_options = SolverOptions()
-        for name, value in SNOPT_OPTIONS.items():
-            self.solver_options.SetOption(SnoptSolver.id(), name, value)
+        self.solver_options = snopt_options()
         self.wrist_range = wrist_distance_range(self.lower[3], self.upper[3])
 
     def may_reach(self, p_hit, normal) -> bool:

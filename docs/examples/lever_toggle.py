@@ -44,7 +44,8 @@ after the other do not. Levers:
   the elbow's reach without running the solver (``HittingIK.may_reach``) against the looser
   triangle-inequality bound (``REACH_BOUND``) it replaced.
 - ``snopt-quiet``: the inverse kinematics' SNOPT at major print level 0
-  (``hitting_ik.SNOPT_OPTIONS``) against its default level (the iteration cap alone).
+  (``hitting_ik.SNOPT_OPTIONS``) against its default level (the iteration cap alone), for the
+  teacher's IK and an analytical hitting configuration's (a CrKR configuration solves none).
 
 ``--perception oracle --record`` plays the serves as the paper protocol's teacher stage does
 (``tt-drake collect --perception oracle``).
@@ -66,7 +67,6 @@ import time
 import types
 
 import numpy as np
-from pydrake.solvers import SnoptSolver, SolverOptions
 
 from tt_drake.diagrams.commands.options import add_scenario_option
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
@@ -77,8 +77,9 @@ from tt_drake.stages import Quintic
 from tt_drake.systems.hitting_ik import (
     REACH_BOUND,
     SHOULDER,
-    SNOPT_MAJOR_ITERATIONS,
+    SNOPT_OPTIONS,
     HittingIK,
+    snopt_options,
 )
 
 _DID_NOTHING_MODULES = ("tt_drake.systems.ball_flight_estimator",
@@ -193,8 +194,7 @@ def toggles(diagram: ServeDiagram) -> dict:
                 if diagram.diagram.HasSubsystemNamed(name)]
     arms = [planner.arm for planner in planners if planner is not None]  # a CrKR source has none
     quiet = [arm.solver_options for arm in arms]
-    loud = SolverOptions()
-    loud.SetOption(SnoptSolver.id(), "Major iterations limit", SNOPT_MAJOR_ITERATIONS)
+    loud = snopt_options({k: v for k, v in SNOPT_OPTIONS.items() if k != "Major print level"})
 
     def snopt_quiet(on: bool) -> None:
         for arm, options in zip(arms, quiet, strict=True):

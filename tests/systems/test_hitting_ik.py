@@ -14,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pydrake.solvers import SnoptSolver, SolverOptions
 
 from tt_drake import wam_params as wp
 from tt_drake.constants import HITTING_REGION, PLANES, TARGET
@@ -22,9 +21,10 @@ from tt_drake.systems import wam
 from tt_drake.systems.hitting_ik import (
     HITTING_COMFORT,
     SHOULDER,
-    SNOPT_MAJOR_ITERATIONS,
+    SNOPT_OPTIONS,
     WRIST_TO_CENTRE,
     HittingIK,
+    snopt_options,
     velocity_limit_usage,
     within_velocity_limits,
 )
@@ -136,9 +136,8 @@ def test_snopts_print_level_does_not_change_an_answer(ik):
     same answers to the last bit, and a request the solver fails on from every start fails
     the same way."""
     loud = HittingIK()
-    loud.solver_options = SolverOptions()
-    loud.solver_options.SetOption(SnoptSolver.id(), "Major iterations limit",
-                                  SNOPT_MAJOR_ITERATIONS)
+    loud.solver_options = snopt_options(
+        {k: v for k, v in SNOPT_OPTIONS.items() if k != "Major print level"})
     assert ik.solver_options.options["SNOPT"]["Major print level"] == 0
     requests = _requests(12, seed=11)
     # Within the wrist's reach, outside the joint limits' (test below): every start fails.
