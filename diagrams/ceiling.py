@@ -45,6 +45,7 @@ from tt_drake.seeds import episode_seed
 from tt_drake.serves import serve_sampler
 from tt_drake.systems.analytical_player import PlannerConfig, planner_ball_model
 from tt_drake.systems.hitting_ik import SHOULDER
+from tt_drake.systems.momp_player import MOVING_GOAL_TORQUE_FRACTION
 from tt_drake.wam_params import reach_bound
 
 
@@ -139,10 +140,12 @@ def strategy_scenario(strategy: OracleStrategy, scenario: Scenario) -> Scenario:
     oracle.camera = dataclasses.replace(oracle.camera, noise_stream=strategy.noise_stream)
     if strategy.artefacts is not None:
         # The set as it was trained and shipped: without the stock robot's fallbacks and early
-        # refresh, so that the bound does not move with the learned player's settings (a
+        # refresh, its plans asking the drives' supply the moving goal's multiple of the effort
+        # limits, so that the bound does not move with the learned player's settings (a
         # learned return outside it is reported as such).
         oracle.learned = LearnedPlayerConfig(correction_fallback=False, stroke_fallbacks=False,
-                                             refresh_before_bounce=False)
+                                             refresh_before_bounce=False,
+                                             supply_fraction=MOVING_GOAL_TORQUE_FRACTION)
         use_artefact_set(oracle.learned, strategy.artefacts)
     return oracle
 

@@ -263,7 +263,8 @@ def add_learned_player(builder: DiagramBuilder, world: World, controller, scenar
         stimulus=None if crkr is None else crkr.stimulus,
         config=momp_config(scenario.learned.moving_goal, scenario.controller.drive_voltage,
                            scenario.learned.correction_fallback,
-                           scenario.learned.stroke_fallbacks)))
+                           scenario.learned.stroke_fallbacks,
+                           scenario.learned.supply_fraction)))
     # The measured arm: the player holds when the arm no longer follows its plan.
     builder.Connect(world.plant.get_state_output_port(world.robot),
                     player.GetInputPort("arm_state"))

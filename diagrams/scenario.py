@@ -20,6 +20,7 @@ from pydrake.systems.analysis import GetIntegrationSchemes
 
 from tt_drake.camera_model import CameraConfig
 from tt_drake.constants import MAX_EXCHANGES
+from tt_drake.drives import SUPPLY_FRACTION
 from tt_drake.errors import BadInputError
 from tt_drake.rally_aim import AIMS
 from tt_drake.rally_rules import RallyConfig
@@ -111,6 +112,11 @@ class LearnedPlayerConfig:
     # refresh_ahead``), so the goal follows the filter's spin as it converges. On for the stock
     # robot; ``ideal_robot`` turns it off.
     refresh_before_bounce: bool = True
+    # With drives (``controller.drive_voltage``): the share of the supply at each joint speed,
+    # and of each joint's no-load speed, the learned player's plans may ask for
+    # (``MoMPConfig.supply_fraction``); the teacher's 1.5 (docs/learned_player.md, "On the stock
+    # robot: the drives' supply"). No effect on ideal drives.
+    supply_fraction: float = SUPPLY_FRACTION
 
 
 @dataclass
@@ -424,6 +430,7 @@ FIELD_RULES: dict[str, Check] = {
     "after_crossing": number(above=0.0, maximum=60.0),
     "teacher.min_hitting": number(minimum=0.0, maximum=StageTimes().hitting),
     "teacher.correction_torque_fraction": number(above=0.0, maximum=2.0),
+    "learned.supply_fraction": number(above=0.0, maximum=3.0),
 }
 
 

@@ -55,7 +55,7 @@ from pydrake.common.value import AbstractValue
 from tt_drake import wam_params as wp
 from tt_drake.ball_model import BallModel, BallModelParams, CompliantBounceBallModel
 from tt_drake.constants import BALL, PLANES, TABLE, TARGET
-from tt_drake.drives import EffortBudget, drive_envelope
+from tt_drake.drives import SUPPLY_FRACTION, EffortBudget, drive_envelope
 from tt_drake.hitting_time import (
     BounceCount,
     HittingBand,
@@ -152,7 +152,7 @@ class PlannerConfig:
     # ``supply_fraction`` of the supply at every joint speed, and each joint within that
     # share of its no-load speed; 0: ideal drives.
     drive_voltage: float = 0.0
-    supply_fraction: float = 1.5
+    supply_fraction: float = SUPPLY_FRACTION
     times: StageTimes = StageTimes()
     # Where a ball off the plane may be hit (tt_drake.hitting_time); None: the plane only.
     band: HittingBand | None = HittingBand()

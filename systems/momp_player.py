@@ -65,6 +65,7 @@ InverseDynamicsController, ``stage`` (1: index into :data:`tt_drake.stages.STAGE
 mixture weights).
 """
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -135,8 +136,13 @@ class MoMPConfig:
     # re-plans near the hit are refused and the stroke keeps aiming at an earlier prediction.
     torque_fraction: float = 1.5
     # The drives' supply voltage (V, tt_drake.drives): the check then also asks for at most
-    # ``torque_fraction`` of the supply at each joint speed; 0: ideal drives.
+    # ``supply_fraction`` of the supply at each joint speed, and each joint stays within that
+    # share of its no-load speed; 0: ideal drives.
     drive_voltage: float = 0.0
+    # None: ``torque_fraction``. The effort budget bounds the current a plan asks for, this the
+    # voltage: a plan asking somewhat more than the supply gives at a joint's speed is followed
+    # with a short lag (:data:`tt_drake.drives.SUPPLY_FRACTION`, the teacher's share).
+    supply_fraction: float | None = None
     # The hitting DMP's moving goal (Eq. 4, section III-C): with a value, the hitting stage is
     # not committed at its start; each new prediction (the predictor's refreshed, spin-aware one
     # after the robot-side bounce) moves its goal (theta_hit, theta_dot_hit, t_hit) until this
@@ -181,18 +187,33 @@ class MoMPConfig:
     # stock robot").
     stroke_fallbacks: bool = False
 
+    def __post_init__(self):
+        for name in ("torque_fraction", "supply_fraction"):
+            value = getattr(self, name)
+            if value is not None and not 0.0 < value < math.inf:
+                raise ValueError(f"MoMPConfig.{name} must be a number > 0 (got {value})")
+
+    @property
+    def supply_share(self) -> float:
+        """The share of the drives' supply a plan may ask for: ``supply_fraction``, or
+        ``torque_fraction`` when that is None."""
+        return self.torque_fraction if self.supply_fraction is None else self.supply_fraction
+
 
 def momp_config(moving_goal: bool = False, drive_voltage: float = 0.0,
-                correction_fallback: bool = False, stroke_fallbacks: bool = False) -> MoMPConfig:
+                correction_fallback: bool = False, stroke_fallbacks: bool = False,
+                supply_fraction: float | None = None) -> MoMPConfig:
     """The player of the paper profile, or with the hitting DMP's moving goal (the hard
     protocol's: cut-off :data:`MOVING_GOAL_CUTOFF`, effort budget
     :data:`MOVING_GOAL_TORQUE_FRACTION`, and ``correction_fallback``, ``stroke_fallbacks`` for
-    a refused move); its effort check knows drives of ``drive_voltage`` (0: ideal)."""
+    a refused move); its effort check knows drives of ``drive_voltage`` (0: ideal), of whose
+    supply its plans may ask ``supply_fraction`` (None: the effort budget's multiple)."""
     if not moving_goal:
-        return MoMPConfig(drive_voltage=drive_voltage)
+        return MoMPConfig(drive_voltage=drive_voltage, supply_fraction=supply_fraction)
     return MoMPConfig(goal_cutoff=MOVING_GOAL_CUTOFF,
                       torque_fraction=MOVING_GOAL_TORQUE_FRACTION, drive_voltage=drive_voltage,
-                      correction_fallback=correction_fallback, stroke_fallbacks=stroke_fallbacks)
+                      supply_fraction=supply_fraction, correction_fallback=correction_fallback,
+                      stroke_fallbacks=stroke_fallbacks)
 
 
 class _State(Immutable):
@@ -244,8 +265,9 @@ class MoMPTrajectorySource(StagePlanPlayer):
         self.library, self.stages, self.arm = library, stages, arm
         self.config = config or MoMPConfig()
         drive = drive_envelope(self.config.drive_voltage)
-        self.limits = joint_limits(drive, self.config.torque_fraction)
-        self._effort_budget = EffortBudget(self.config.torque_fraction, drive)
+        self.limits = joint_limits(drive, self.config.supply_share)
+        self.effort_budget = EffortBudget(self.config.torque_fraction, drive,
+                                          self.config.supply_share)
         self.q_await = np.asarray(wp.AWAITING if q_await is None else q_await, dtype=float)
         self._p = self.DeclareVectorInputPort("p_hit", 3)
         self._v = self.DeclareVectorInputPort("v_hit", 3)
@@ -574,7 +596,7 @@ class MoMPTrajectorySource(StagePlanPlayer):
     def _within_effort(self, plan: StagePlan, now: float) -> bool:
         if self.arm is None:
             return True
-        return within_effort(plan, self.arm.torques, self._effort_budget, now)
+        return within_effort(plan, self.arm.torques, self.effort_budget, now)
 
     @staticmethod
     def hit_point(stroke):

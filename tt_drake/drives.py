@@ -30,6 +30,13 @@ import numpy as np
 
 from tt_drake import wam_params as wp
 
+#: The share of the drives' supply (and of each joint's no-load speed) the players' plans may
+#: ask for at each joint speed: a plan asking somewhat more than the supply gives is followed
+#: with a short lag, and returns more balls than one refused. Chosen on the teacher's
+#: validation serves (docs/analytical_player.md, "Drives"); the learned player's plans use it
+#: too (docs/learned_player.md, "On the stock robot: the drives' supply").
+SUPPLY_FRACTION = 1.5
+
 
 @dataclass(frozen=True)
 class DriveEnvelope:

@@ -19,6 +19,7 @@ from tt_drake.diagrams.scenario import Scenario
 from tt_drake.hitting_time import HittingBand
 from tt_drake.referee_rules import Outcome
 from tt_drake.serves import ServeSampler
+from tt_drake.systems.momp_player import MOVING_GOAL_TORQUE_FRACTION
 from tt_drake.wam_params import (
     RACKET,
     racket_center_in_world,
@@ -170,6 +171,10 @@ def test_a_learned_strategy_plays_the_shipped_set_with_the_oracles_perception():
     for setting in ("correction_fallback", "stroke_fallbacks", "refresh_before_bounce"):
         assert getattr(scenario.learned, setting) and not getattr(played.learned, setting)
     assert played.learned.moving_goal
+    # ... and asking the drives' supply the moving goal's multiple of the effort limits, not the
+    # scenario's share
+    assert played.learned.supply_fraction == MOVING_GOAL_TORQUE_FRACTION
+    assert scenario.learned.supply_fraction != MOVING_GOAL_TORQUE_FRACTION
     teacher = strategy_scenario(STRATEGIES[0], scenario)
     assert teacher.learned == scenario.learned and teacher.perception == "oracle"
 

@@ -136,6 +136,8 @@ def test_latency_counts_whole_frames():
     ("launcher: {x_range: [0.3, 0.1]}", "launcher.x_range"),
     ("teacher: {correction_torque_fraction: 0.0}", "teacher.correction_torque_fraction"),
     ("teacher: {correction_torque_fraction: 2.5}", "teacher.correction_torque_fraction"),
+    ("learned: {supply_fraction: 0.0}", "learned.supply_fraction"),
+    ("learned: {supply_fraction: 4.0}", "learned.supply_fraction"),
 ])
 def test_invalid_fault_settings_are_refused_with_the_field_name(tmp_path, text, field):
     path = write(tmp_path / "bad.yaml", text)

@@ -15,6 +15,7 @@ from tt_drake.diagrams.players import (
     unregister_player,
 )
 from tt_drake.diagrams.scenario import load_scenario
+from tt_drake.systems.momp_player import MOVING_GOAL_TORQUE_FRACTION
 
 
 def test_the_built_in_players_resolve_to_their_functions():
@@ -98,10 +99,13 @@ def test_the_scenarios_drives_reach_every_players_effort_check(tmp_path):
         configuration = diagram.diagram.GetSubsystemByName("hitting_configuration")
         assert configuration.planner.effort_budget.drive == drive
         assert diagram.player.config.drive_voltage == (0.0 if drive is None else 48.0)
-        fraction = diagram.player.config.torque_fraction
+        # Its plans ask the moving goal's multiple of the effort limits and the scenario's share
+        # of the supply (the teacher's), each joint within that share of its no-load speed.
+        budget, share = diagram.player.effort_budget, scenario.learned.supply_fraction
+        assert (budget.fraction, budget.supply_fraction) == (MOVING_GOAL_TORQUE_FRACTION, share)
+        assert budget.drive == drive and share == planner.config.supply_fraction
         np.testing.assert_array_equal(diagram.player.limits.velocity, np.full(7, 10.0) if drive
-                                      is None else np.minimum(10.0,
-                                                              fraction * drive.no_load_speed))
+                                      is None else np.minimum(10.0, share * drive.no_load_speed))
     scenario = load_scenario()
     for bad in (12.0, 120.0, -1.0):
         scenario.controller.drive_voltage = bad

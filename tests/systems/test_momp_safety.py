@@ -6,13 +6,16 @@ import numpy as np
 import pytest
 
 import tt_drake.systems.momp_player as momp_player
+from tt_drake.drives import DriveEnvelope
 from tt_drake.stages import AWAITING
 from tt_drake.systems.momp_player import (
     MOVING_GOAL_CUTOFF,
+    MOVING_GOAL_TORQUE_FRACTION,
     MoMPConfig,
     MoMPTrajectorySource,
     momp_config,
 )
+from tt_drake.wam_params import EFFORT_LIMIT
 
 from .test_momp_player import Q_AWAIT, Q_HIT, QD_HIT, T_HIT, fix_inputs
 from .test_moving_goal import _stroke_under_way
@@ -155,3 +158,37 @@ def test_the_paper_profile_keeps_its_player():
     assert MoMPConfig().goal_cutoff is None and MoMPConfig().torque_fraction == 1.5
     hard = momp_config(True)
     assert hard.goal_cutoff == MOVING_GOAL_CUTOFF and hard.torque_fraction < 1.5
+
+
+def test_the_supply_share_bounds_a_plans_torque_at_speed_apart_from_its_effort_budget():
+    """With drives, a plan may ask ``torque_fraction`` of the effort limits and ``supply_share``
+    of the supply: at joint speed q_dot the bound is min(f E, s a - b q_dot) (tt_drake.drives),
+    so at a joint's no-load speed a / b a plan keeps (s - 1) a of torque, and no joint is
+    planned faster than s a / b. None shares the effort budget's multiple (the paper profile:
+    1.5 both); bad shares are refused."""
+    drive = DriveEnvelope(48.0)
+    base_speed = drive.no_load_speed[0]
+    stall, effort = drive.stall[0], EFFORT_LIMIT[0]
+    assert MoMPConfig().supply_share == MoMPConfig().torque_fraction == 1.5
+    assert momp_config(True, 48.0).supply_share == MOVING_GOAL_TORQUE_FRACTION
+    for share in (None, 1.5):
+        config = momp_config(True, 48.0, supply_fraction=share)
+        player = MoMPTrajectorySource(None, None, config)
+        s = MOVING_GOAL_TORQUE_FRACTION if share is None else share
+        assert config.supply_share == s
+        qdot = np.zeros(7)
+        qdot[0] = base_speed
+        lower, upper = player.effort_budget.bounds(qdot)
+        # at the no-load speed the supply's line leaves (s - 1) a, capped at f E
+        assert upper[0] == pytest.approx(min(MOVING_GOAL_TORQUE_FRACTION * effort,
+                                             (s - 1.0) * stall))
+        assert lower[0] == pytest.approx(-MOVING_GOAL_TORQUE_FRACTION * effort)
+        assert player.limits.velocity[0] == pytest.approx(s * base_speed)
+    # 1.2 of the supply leaves a fifth of the stall torque at the no-load speed, 1.5 the whole
+    # moving-goal budget (half the stall torque is more than 1.2 E)
+    assert 0.5 * stall > MOVING_GOAL_TORQUE_FRACTION * effort > 0.2 * stall
+    for bad in (0.0, -1.0, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="supply_fraction"):
+            MoMPConfig(supply_fraction=bad)
+        with pytest.raises(ValueError, match="torque_fraction"):
+            MoMPConfig(torque_fraction=bad)
