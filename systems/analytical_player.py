@@ -55,7 +55,7 @@ from pydrake.common.value import AbstractValue
 from tt_drake import wam_params as wp
 from tt_drake.ball_model import BallModel, BallModelParams, CompliantBounceBallModel
 from tt_drake.constants import BALL, PLANES, TABLE, TARGET
-from tt_drake.drives import SUPPLY_FRACTION, EffortBudget, drive_envelope
+from tt_drake.drives import SUPPLY_FRACTION, EffortBudget, drive_envelope, joint_limits
 from tt_drake.hitting_time import (
     BounceCount,
     HittingBand,
@@ -82,7 +82,6 @@ from tt_drake.stages import (
     AWAITING,
     HITTING,
     PREPARATION,
-    JointLimits,
     Quintic,
     StagePlan,
     StageTimes,
@@ -251,13 +250,7 @@ class StrokePlanner:
         correction = self.config.correction_torque_fraction
         self.correction_budget = (self.effort_budget if correction is None else
                                   dataclasses.replace(self.effort_budget, fraction=correction))
-        velocity = np.asarray(wp.VELOCITY_LIMIT, dtype=float)
-        if self.drive is not None:
-            velocity = np.minimum(velocity,
-                                  self.config.supply_fraction * self.drive.no_load_speed)
-        self.limits = JointLimits(np.asarray(wp.JOINT_LOWER, dtype=float),
-                                  np.asarray(wp.JOINT_UPPER, dtype=float), velocity,
-                                  self.acceleration_limit)
+        self.limits = joint_limits(self.drive, self.config.supply_fraction)
 
     def aimed(self, aim: Aim) -> StrokePlanner:
         """This planner with ``aim``'s target, flight time (if any) and topspin: a shallow copy

@@ -73,7 +73,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import EventStatus
 
 from tt_drake import wam_params as wp
-from tt_drake.drives import DriveEnvelope, EffortBudget, drive_envelope
+from tt_drake.drives import EffortBudget, drive_envelope, joint_limits
 from tt_drake.learned_player import (
     MoMPStroke,
     move_hitting_goal,
@@ -85,7 +85,6 @@ from tt_drake.stages import (
     AWAITING,
     HITTING,
     PREPARATION,
-    JointLimits,
     Quintic,
     StagePlan,
     StageTimes,
@@ -230,18 +229,6 @@ class _State(Immutable):
                  refused: tuple | None = None, spinless_move: bool = False):
         self.plan, self.stroke, self.committed, self.seen = plan, stroke, committed, seen
         self.refused, self.spinless_move = refused, spinless_move
-
-
-def joint_limits(drive: DriveEnvelope | None = None, supply_fraction: float = 1.0) -> JointLimits:
-    """The arm's joint limits for the learned player's plans; with ``drive``, no joint faster
-    than ``supply_fraction`` of its drive's no-load speed (the speed at which that share of
-    the supply is all back EMF)."""
-    velocity = np.asarray(wp.VELOCITY_LIMIT, dtype=float)
-    if drive is not None:
-        velocity = np.minimum(velocity, supply_fraction * drive.no_load_speed)
-    return JointLimits(np.asarray(wp.JOINT_LOWER, dtype=float),
-                       np.asarray(wp.JOINT_UPPER, dtype=float), velocity,
-                       np.asarray(wp.ACCELERATION_LIMIT, dtype=float))
 
 
 class MoMPTrajectorySource(StagePlanPlayer):

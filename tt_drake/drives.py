@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tt_drake import wam_params as wp
+from tt_drake.stages import JointLimits
 
 #: The share of the drives' supply (and of each joint's no-load speed) the players' plans may
 #: ask for at each joint speed: a plan asking somewhat more than the supply gives is followed
@@ -123,3 +124,16 @@ class EffortBudget:
 def drive_envelope(voltage: float) -> DriveEnvelope | None:
     """The envelope at ``voltage`` V; None for 0 (ideal drives: the effort limits only)."""
     return None if voltage == 0.0 else DriveEnvelope(float(voltage))
+
+
+def joint_limits(drive: DriveEnvelope | None = None, supply_fraction: float = 1.0) -> JointLimits:
+    """The arm's joint limits for a planner's plans (the teacher's and the learned player's):
+    the position, acceleration and lab's speed limits, and with ``drive`` no joint faster than
+    ``supply_fraction`` of its drive's no-load speed (the speed at which that share of the
+    supply is all back EMF)."""
+    velocity = np.asarray(wp.VELOCITY_LIMIT, dtype=float)
+    if drive is not None:
+        velocity = np.minimum(velocity, supply_fraction * drive.no_load_speed)
+    return JointLimits(np.asarray(wp.JOINT_LOWER, dtype=float),
+                       np.asarray(wp.JOINT_UPPER, dtype=float), velocity,
+                       np.asarray(wp.ACCELERATION_LIMIT, dtype=float))

@@ -26,10 +26,11 @@ import numpy as np
 from tt_drake.diagrams.collect import load_dataset
 from tt_drake.diagrams.train import extract_strokes, stage_runs, train_library
 from tt_drake.dmp import HittingDMP
+from tt_drake.drives import joint_limits
 from tt_drake.imitation import imitate
 from tt_drake.learned_player import load_player_library, plan_momp_stroke, within_limits
 from tt_drake.stages import HITTING, STAGES, StageTimes
-from tt_drake.systems.momp_player import MoMPConfig, joint_limits
+from tt_drake.systems.momp_player import MoMPConfig
 from tt_drake.wam_params import AWAITING
 
 HIT = STAGES.index(HITTING)
