@@ -320,8 +320,9 @@ class EpisodeResult:
     arm: dict | None = None
     record: dict | None = field(default=None, repr=False)  # demonstration data (collect)
     stroke: dict | None = None  # the learned player's last plan (stroke_summary)
-    # CPU time of the process that ran the episode (process_time, s): with wall_time, how much
-    # of a core a worker got (tt-drake bench --workers; not written to the JSON).
+    # CPU time of the thread that ran the episode (thread_time, s, measured inside the wall
+    # interval, so never more than wall_time): with wall_time, how much of a core a worker got
+    # (tt-drake bench --workers; not written to the JSON).
     cpu_time: float = 0.0
 
     def as_dict(self) -> dict:
@@ -468,7 +469,8 @@ class ServeDiagram:
         own timeline afterwards). ``gamma``: the momp player's responsibilities for this episode
         (default: the loaded library's); ``weights``: its hitting primitives' weights ``(P, D,
         B)`` for this episode (PoWER's explored weights; default: the loaded library's)."""
-        wall, cpu = time.perf_counter(), time.process_time()
+        wall = time.perf_counter()
+        cpu = time.thread_time()
         self._set_library_array("gamma", gamma, lambda g: np.all(g >= 0) and np.any(g > 0),
                                 "responsibilities gamma",
                                 lambda g0: f"gamma must be {g0.shape[0]} non-negative values, "
@@ -513,9 +515,9 @@ class ServeDiagram:
                 self.player.GetMyContextFromRoot(self.context)))
             if stroke is not None and self.final_logger is not None:
                 stroke["early_prediction"] = self._hit_on_early_prediction()
+        cpu = time.thread_time() - cpu
         return EpisodeResult(seed, list(serve.launch_state), list(crossing), duration, outcome,
-                             time.perf_counter() - wall, path, arm, record, stroke,
-                             time.process_time() - cpu)
+                             time.perf_counter() - wall, path, arm, record, stroke, cpu)
 
     def extend(self, seconds: float) -> None:
         """Simulate the last episode up to ``seconds`` longer (never past its time limit, nor
