@@ -158,10 +158,13 @@ class PhysicsDiagram:
         ``trajectory`` (None: the arm holds its awaiting posture); returns the time reached."""
         self.context.SetTimeStateAndParametersFrom(self._initial)
         ApplySimulatorConfig(self._config, self.simulator)
-        set_ball_state(self.world, self.world.plant.GetMyMutableContextFromRoot(self.context),
-                       launch_state)
+        plant_context = self.world.plant.GetMyMutableContextFromRoot(self.context)
+        set_ball_state(self.world, plant_context, launch_state)
         if trajectory is not None:
             self.source.UpdateTrajectory(trajectory)
+            # The arm starts where the recorded player waited (its awaiting posture).
+            start = trajectory.value(trajectory.start_time())[:7, 0]
+            self.world.plant.SetPositions(plant_context, self.world.robot, start)
         self.simulator.Initialize()
         if self._schedule is None:
             self.simulator.AdvanceTo(duration)

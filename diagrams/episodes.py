@@ -114,12 +114,15 @@ def teacher_planner_config(scenario: Scenario) -> PlannerConfig:
     """The teacher's planner for a scenario: aiming at its referee's target, with its
     ``teacher`` settings (:class:`tt_drake.diagrams.scenario.TeacherConfig`) and planning
     within its arm's drives (``controller.drive_voltage``)."""
+    teacher = scenario.teacher
     return PlannerConfig(target_x=scenario.referee.target_x, target_y=scenario.referee.target_y,
-                         correction_fallbacks=scenario.teacher.correction_fallbacks,
-                         plan_fallbacks=scenario.teacher.plan_fallbacks,
-                         correction_torque_fraction=scenario.teacher.correction_torque_fraction,
+                         correction_fallbacks=teacher.correction_fallbacks,
+                         plan_fallbacks=teacher.plan_fallbacks,
+                         torque_fraction=teacher.torque_fraction,
+                         correction_torque_fraction=teacher.correction_torque_fraction,
                          drive_voltage=scenario.controller.drive_voltage,
-                         times=StageTimes(min_hitting=scenario.teacher.min_hitting))
+                         times=StageTimes(min_hitting=teacher.min_hitting),
+                         awaiting=(teacher.awaiting_base, *AWAITING[1:]))
 
 
 def add_analytical_player(builder: DiagramBuilder, world: World, controller,
@@ -452,12 +455,13 @@ class ServeDiagram:
         self._initial = self.context.Clone()
 
     def _set_awaiting_posture(self) -> None:
-        """The arm at the awaiting posture, and the servo holds (if any) holding the player's
-        first set-point, so that nothing sees their default zeros before the first tick."""
+        """The servo holds (if any) holding the player's first set-point, so that nothing sees
+        their default zeros before the first tick, and the arm at rest where it asks (its
+        awaiting posture)."""
         if self.world.robot is None:
             return
-        awaiting_posture(self.world, self.context)
         hold_first_setpoint(self.diagram, self.context)
+        awaiting_posture(self.world, self.context, self.station)
 
     @property
     def library(self):

@@ -241,9 +241,11 @@ class RallyDiagram:
         self._initial = self.context.Clone()
 
     def _set_awaiting_posture(self) -> None:
-        awaiting_posture(self.world, self.context)
+        """Each side's servo hold holding its player's first set-point, and each arm at rest
+        where its player asks (its awaiting posture)."""
         for side in self.sides:
             hold_first_setpoint(side, self.context)
+        awaiting_posture(self.world, self.context, self.station)
 
     def run(self, seed: int, gamma=None) -> RallyResult:
         """Simulate one rally from ``seed`` (``gamma``: accepted for the parallel runner's

@@ -30,8 +30,15 @@ from tt_drake.stages import StageTimes
 from tt_drake.systems.aerodynamics import AerodynamicsConfig
 from tt_drake.systems.ball_launcher import LauncherConfig
 from tt_drake.systems.ball_oracle import PERCEPTIONS
+from tt_drake.systems.hitting_ik import JOINT_MARGIN
 from tt_drake.systems.world import ModelFileError, WorldConfig, is_explicit_path, model_path
-from tt_drake.wam_params import DESIGN_VOLTAGE, EFFORT_LIMIT, SUPPLY_VOLTAGE_RANGE
+from tt_drake.wam_params import (
+    DESIGN_VOLTAGE,
+    EFFORT_LIMIT,
+    JOINT_LOWER,
+    JOINT_UPPER,
+    SUPPLY_VOLTAGE_RANGE,
+)
 
 
 def _zeros7() -> list[float]:
@@ -124,7 +131,7 @@ class TeacherConfig:
     """The analytical player's planner settings a scenario may change
     (:class:`tt_drake.systems.analytical_player.PlannerConfig`; docs/analytical_player.md). The
     defaults are the stock robot's teacher, each chosen on its validation serves; the shipped
-    ``ideal_robot`` scenario turns the first three off, the teacher its figures were made with.
+    ``ideal_robot`` scenario sets every one back to the teacher its figures were made with.
 
     ``correction_fallbacks``: a correction of the committed stroke that the effort check refuses
     tries the planner's fallbacks in turn (less of the spin compensated, the ball met off the
@@ -133,15 +140,19 @@ class TeacherConfig:
     stroke the arm cannot reach does ("Fallbacks"). ``min_hitting`` (s): the hitting stage is
     shortened, to no less than this, where a joint's swing-back is clipped at its limit, so
     that no joint moves back past it (:func:`tt_drake.stages.hitting_duration`); 0: it always
-    lasts 0.4 s ("Stages"). ``correction_torque_fraction``: the share of the effort limits a
-    correction of the committed stroke may ask for (a first plan: 0.9, leaving the rest for
-    tracking errors); above 0.9 a correction the committed stroke's margin would refuse is
-    followed with the arm's lag instead ("Corrections"); at most 2."""
+    lasts 0.4 s ("Stages"). ``torque_fraction``: the share of the effort limits a first plan may
+    ask for; ``correction_torque_fraction``: the same for a correction of the committed stroke;
+    above 0.9 a plan is followed with the arm's lag where it asks for more than the drives give
+    after tracking errors ("Effort"); each at most 2. ``awaiting_base`` (rad): the base joint's
+    angle in the teacher's awaiting posture, the rest of which is ``wam_params.AWAITING``'s; the
+    episode starts the arm there and every stroke returns there ("The awaiting posture")."""
 
     correction_fallbacks: bool = True
     plan_fallbacks: bool = True
     min_hitting: float = 0.1
-    correction_torque_fraction: float = 0.9
+    torque_fraction: float = 1.2
+    correction_torque_fraction: float = 1.2
+    awaiting_base: float = -0.55
 
 
 @dataclass
@@ -429,7 +440,10 @@ FIELD_RULES: dict[str, Check] = {
                              f"(got {v:g})")),
     "after_crossing": number(above=0.0, maximum=60.0),
     "teacher.min_hitting": number(minimum=0.0, maximum=StageTimes().hitting),
+    "teacher.torque_fraction": number(above=0.0, maximum=2.0),
     "teacher.correction_torque_fraction": number(above=0.0, maximum=2.0),
+    "teacher.awaiting_base": number(minimum=JOINT_LOWER[0] + JOINT_MARGIN,
+                                    maximum=JOINT_UPPER[0] - JOINT_MARGIN),
     "learned.supply_fraction": number(above=0.0, maximum=3.0),
 }
 

@@ -315,12 +315,21 @@ def station_ports(diagram, side: int = 0):
     return world, controller
 
 
-def awaiting_posture(world: World, root_context) -> None:
-    """Every robot of ``world`` at the awaiting posture in ``root_context``."""
+def awaiting_posture(world: World, root_context, station=None) -> None:
+    """Every robot of ``world`` at rest in ``root_context``, where its player waits: at the
+    joint angles of the desired state on ``station``'s ``wam_<A|B>_desired_state`` input there
+    (a station Diagram, or the :class:`Station` of :func:`add_station`; hold the players' first
+    set-points first, :func:`tt_drake.systems.wam.hold_first_setpoint`), so that no arm starts
+    away from its player's awaiting posture; at ``wam_params.AWAITING`` without ``station``."""
     plant_context = world.plant.GetMyMutableContextFromRoot(root_context)
-    for robot in (world.robot, world.robot_b):
-        if robot is not None:
-            world.plant.SetPositions(plant_context, robot, np.asarray(AWAITING))
+    for side, robot in enumerate((world.robot, world.robot_b)):
+        if robot is None:
+            continue
+        q = np.asarray(AWAITING, dtype=float)
+        if station is not None:
+            port = station.GetInputPort(arm_port(side, "desired_state"))
+            q = np.array(port.Eval(port.get_system().GetMyContextFromRoot(root_context))[:7])
+        world.plant.SetPositions(plant_context, robot, q)
 
 
 def reset_episode(simulator, initial, simulator_config, seeded: list, world: World,

@@ -179,6 +179,8 @@ class PlannerConfig:
     # a t_hit that moves a few ms between frames can close it before the player acts; three
     # frames (docs/analytical_player.md, "Stages").
     start_margin: float = 3.0 / 60.0
+    # The awaiting posture (rad): where the arm waits for the ball and every stroke returns to.
+    awaiting: tuple[float, ...] = wp.AWAITING
 
 
 #: How much larger than the table the planner's model takes it (m): the launcher serves only onto
@@ -243,7 +245,7 @@ class StrokePlanner:
             arm = HittingIK()
         self.arm = arm
         self.model = model or planner_ball_model()
-        self.q_await = np.asarray(wp.AWAITING, dtype=float)
+        self.q_await = np.asarray(self.config.awaiting, dtype=float)
         self.acceleration_limit = np.asarray(wp.ACCELERATION_LIMIT, dtype=float)
         self.effort_budget = EffortBudget(self.config.torque_fraction, self.drive,
                                           self.config.supply_fraction)

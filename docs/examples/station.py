@@ -29,8 +29,8 @@ seeded = player_function("analytical")(builder, world, controller, scenario)
 diagram = builder.Build()
 simulator = make_simulator(diagram, scenario.world, station.world.plant)
 context = simulator.get_mutable_context()
-awaiting_posture(station.world, context)
 hold_first_setpoint(diagram, context)
+awaiting_posture(station.world, context, station.diagram)  # where the player waits
 serve = reset_episode(simulator, context.Clone(), scenario.world.simulator,
                       [station.launcher, *seeded], station.world, episode_seed(1, 0))
 station.visualizer.StartRecording()

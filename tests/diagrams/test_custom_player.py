@@ -86,7 +86,8 @@ def test_the_registered_player_plays_a_gymnasium_step_episode_under_the_agents_o
     env = ReturnBallStepEnv(player="posture_holder")
     observation, info = env.reset(seed=0, options={"serve_seed": 5})
     assert info["serve_seed"] == 5
-    np.testing.assert_allclose(observation[:7], AWAITING, atol=1e-6)  # the episode's start
+    # The episode starts the arm at rest where its player waits.
+    np.testing.assert_allclose(observation[:7], POSTURE, atol=1e-6)
     push = np.r_[1.0, np.zeros(6)]  # the shoulder turned further, for 4 steps
     steps, done = 0, False
     while not done:

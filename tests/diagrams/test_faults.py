@@ -136,6 +136,10 @@ def test_latency_counts_whole_frames():
     ("launcher: {x_range: [0.3, 0.1]}", "launcher.x_range"),
     ("teacher: {correction_torque_fraction: 0.0}", "teacher.correction_torque_fraction"),
     ("teacher: {correction_torque_fraction: 2.5}", "teacher.correction_torque_fraction"),
+    ("teacher: {torque_fraction: 0.0}", "teacher.torque_fraction"),
+    ("teacher: {torque_fraction: 2.5}", "teacher.torque_fraction"),
+    ("teacher: {awaiting_base: 2.7}", "teacher.awaiting_base"),
+    ("teacher: {awaiting_base: .nan}", "teacher.awaiting_base"),
     ("learned: {supply_fraction: 0.0}", "learned.supply_fraction"),
     ("learned: {supply_fraction: 4.0}", "learned.supply_fraction"),
 ])

@@ -16,6 +16,7 @@ from tt_drake.diagrams.players import (
 )
 from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.systems.momp_player import MOVING_GOAL_TORQUE_FRACTION
+from tt_drake.wam_params import AWAITING
 
 
 def test_the_built_in_players_resolve_to_their_functions():
@@ -53,26 +54,56 @@ def test_a_player_needs_a_name(name):
 
 
 def test_the_scenarios_teacher_settings_reach_the_analytical_player():
-    """``teacher`` (the stock robot's settings by default; all off in the shipped
-    ``ideal_robot`` scenario) is the teacher's planner setting in the serve diagram, which keeps
-    aiming at the scenario's referee target."""
+    """``teacher`` (the stock robot's settings by default; the shipped ``ideal_robot``
+    scenario's teacher plays no refused plan's fallbacks, keeps 0.9 of the effort limits and
+    waits at wam_params.AWAITING) is the teacher's planner setting in the serve diagram, which
+    keeps aiming at the scenario's referee target."""
     from tt_drake.diagrams.episodes import ServeDiagram
 
-    for name, on, min_hitting in (("default", True, 0.1), ("ideal_robot", False, 0.0)):
+    for name, on, min_hitting, fraction, base in (("default", True, 0.1, 1.2, -0.55),
+                                                  ("ideal_robot", False, 0.0, 0.9, -0.8)):
         scenario = load_scenario(name)
         scenario.referee.target_x = -0.2
         planner = ServeDiagram(scenario, "analytical").player.planner
         config = planner.config
         assert config.correction_fallbacks is on and config.plan_fallbacks is on
         assert config.times.min_hitting == min_hitting
-        assert config.correction_torque_fraction == 0.9
+        assert config.torque_fraction == config.correction_torque_fraction == fraction
         assert planner.correction_budget == planner.effort_budget
+        assert planner.effort_budget.fraction == fraction
         assert (config.target_x, config.target_y) == (-0.2, scenario.referee.target_y)
+        np.testing.assert_array_equal(planner.q_await, (base, *AWAITING[1:]))
     scenario = load_scenario("default")
+    scenario.teacher.torque_fraction = 0.9
     scenario.teacher.correction_torque_fraction = 1.0
     planner = ServeDiagram(scenario, "analytical").player.planner
     assert planner.correction_budget.fraction == 1.0 and planner.effort_budget.fraction == 0.9
     assert planner.correction_budget.drive == planner.effort_budget.drive is not None
+
+
+def test_every_arm_starts_at_rest_where_its_player_waits_and_stays_there():
+    """The episode starts the arm at its player's awaiting posture (the teacher's base turned
+    to ``teacher.awaiting_base``, the learned player's and the idle one's wam_params.AWAITING),
+    with the servo hold already holding it: with no ball near, the controller keeps the arm
+    there (gravity compensated, no start-up jerk), within 1 mrad and 0.01 rad/s after 0.1 s."""
+    from tt_drake.diagrams.episodes import ServeDiagram
+    from tt_drake.models import use_artefact_set
+
+    scenario = load_scenario("default")
+    scenario.teacher.awaiting_base = -0.3
+    use_artefact_set(scenario.learned, "hard")
+    for player, base in (("analytical", -0.3), ("momp", AWAITING[0]), ("idle", AWAITING[0])):
+        diagram = ServeDiagram(scenario, player)
+        plant, robot = diagram.world.plant, diagram.world.robot
+        context = diagram.context
+        plant_context = plant.GetMyContextFromRoot(context)
+        expected = np.array((base, *AWAITING[1:]))
+        np.testing.assert_array_equal(plant.GetPositions(plant_context, robot), expected)
+        np.testing.assert_array_equal(plant.GetVelocities(plant_context, robot), np.zeros(7))
+        diagram.simulator.Initialize()
+        diagram.simulator.AdvanceTo(0.1)  # the ball is launched but far from the robot
+        np.testing.assert_allclose(plant.GetPositions(plant_context, robot), expected, atol=1e-3)
+        np.testing.assert_allclose(plant.GetVelocities(plant_context, robot), 0.0, atol=1e-2)
 
 
 def test_the_scenarios_drives_reach_every_players_effort_check(tmp_path):
