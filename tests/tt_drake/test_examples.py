@@ -136,3 +136,26 @@ def test_the_ik_request_count_finds_the_wrist_test_behind_every_failure_without_
     c = module.main(["--serves", "3", "--seed", "7"])
     assert c["requests"] == c["solved"] + c["refused_by_wrist_test"] + c["failed_in_solver"]
     assert c["refused_by_wrist_test"] == c["outside_the_wrists_reach"] > 0
+
+
+def test_the_base_angle_the_hitting_postures_ask_for_grows_toward_the_forehand():
+    """docs/examples/base_angles.py: across the hitting region the IK's base angle rises
+    strictly with the hitting point's x (+x is the forehand), about 1.5 rad from 0.3 m to the
+    backhand to 0.8 m to the forehand, and the stock teacher's awaiting base lies inside that
+    span, nearer its middle than wam_params.AWAITING's."""
+    spec = importlib.util.spec_from_file_location("example_base_angles",
+                                                  EXAMPLES / "base_angles.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    from tt_drake.diagrams.scenario import TeacherConfig
+    from tt_drake.wam_params import AWAITING
+
+    answers = module.base_angles()
+    assert [x for x, _ in answers] == list(module.CROSSINGS_X)  # every point reached
+    bases = np.array([b for _, b in answers])
+    assert np.all(np.diff(bases) > 0.0)
+    assert 1.2 < bases[-1] - bases[0] < 1.8
+    middle = 0.5 * (bases[0] + bases[-1])
+    stock = TeacherConfig().awaiting_base
+    assert bases[0] < stock < bases[-1]
+    assert abs(stock - middle) < abs(AWAITING[0] - middle)
