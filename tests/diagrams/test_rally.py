@@ -94,6 +94,25 @@ def test_each_learned_player_reads_its_own_arms_measured_state():
         np.testing.assert_array_equal(seen, state)
 
 
+def test_each_robot_starts_where_its_own_player_waits():
+    """Robot A with the teacher (its base at ``teacher.awaiting_base``) and robot B with the
+    idle player (wam_params.AWAITING) start at rest each at its own player's awaiting posture,
+    in its own frame (B's is the mirror's: its joint angles are A's kind)."""
+    from tt_drake.diagrams.rally import RallyDiagram, rally_scenario
+    from tt_drake.diagrams.scenario import load_scenario
+    from tt_drake.wam_params import AWAITING
+
+    scenario = load_scenario()
+    scenario.teacher.awaiting_base = -0.3
+    rally = RallyDiagram(rally_scenario(scenario), ("analytical", "idle"))
+    plant = rally.world.plant
+    plant_context = plant.GetMyContextFromRoot(rally.context)
+    for robot, base in ((rally.world.robot, -0.3), (rally.world.robot_b, AWAITING[0])):
+        np.testing.assert_array_equal(plant.GetPositions(plant_context, robot),
+                                      (base, *AWAITING[1:]))
+        np.testing.assert_array_equal(plant.GetVelocities(plant_context, robot), np.zeros(7))
+
+
 @pytest.fixture(scope="module")
 def analytical_pair():
     from tt_drake.diagrams.rally import RallyDiagram, rally_scenario
