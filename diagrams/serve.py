@@ -168,7 +168,8 @@ class CeilingFileError(ValueError, BadInputError):
 def read_returnable(path: str, data: dict | None) -> list[str | None]:
     """The ``returnable_by`` of every serve of an earlier ``serve --ceiling --json`` run. With
     the new run's ``data``, the file must hold the same serves: the same episode seeds and
-    launch states, in order (any player; the bound depends only on the serves)."""
+    launch states, in order (any player). Only the serves are checked: the bound is that of
+    the scenario the file was made with (its drives and teacher settings)."""
     try:
         with open(path, encoding="utf-8") as f:
             saved = json.load(f)

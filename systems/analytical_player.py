@@ -246,7 +246,6 @@ class StrokePlanner:
         self.arm = arm
         self.model = model or planner_ball_model()
         self.q_await = np.asarray(self.config.awaiting, dtype=float)
-        self.acceleration_limit = np.asarray(wp.ACCELERATION_LIMIT, dtype=float)
         self.effort_budget = EffortBudget(self.config.torque_fraction, self.drive,
                                           self.config.supply_fraction)
         correction = self.config.correction_torque_fraction
@@ -454,7 +453,7 @@ class StrokePlanner:
         50 Hz, M q_ddot + C q_dot - tau_g): the controller can then follow it, with the rest of
         the torque left for tracking errors."""
         ext = plan_extremes(plan, rate=200.0)
-        if not (np.all(ext["qdd_max"] <= self.acceleration_limit)
+        if not (np.all(ext["qdd_max"] <= self.limits.acceleration)
                 and np.all(ext["qd_max"] <= self.limits.velocity)
                 and np.all(ext["q_min"] >= self.limits.lower)
                 and np.all(ext["q_max"] <= self.limits.upper)):
