@@ -35,10 +35,11 @@ from tt_drake.flight_kernel import (
     flight_until,
     rk4_flight,
 )
+from tt_drake.interp_kernel import interp_one
 
 
 @lru_cache(maxsize=1)
-def _restitution_table() -> tuple[np.ndarray, np.ndarray]:
+def restitution_table() -> tuple[np.ndarray, np.ndarray]:
     """Tabulate e(d v) by integrating the dimensionless Hunt-Crossley impact.
 
     With x = v0 sqrt(m/k) xi and t = sqrt(m/k) s the impact is xi'' = -xi (1 + (d v0) xi')^+,
@@ -78,8 +79,8 @@ def hunt_crossley_restitution(dissipation: float, impact_speed: float) -> float:
     Close to the textbook first-order result e ~ 1 - (2/3) d v for small d v (docs/constants.md, the
     restitution table).
     """
-    dv_grid, e_grid = _restitution_table()
-    return float(np.interp(dissipation * abs(impact_speed), dv_grid, e_grid))
+    dv_grid, e_grid = restitution_table()
+    return interp_one(dissipation * abs(impact_speed), dv_grid, e_grid)
 
 
 def event_stop(event: tuple[int, float, float]):

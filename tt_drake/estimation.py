@@ -67,6 +67,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from tt_drake.ball_model import BallModel, BallModelParams, CompliantBounceBallModel
+from tt_drake.filter_kernel import add_process_noise
 from tt_drake.flight_kernel import UNTIL_CONTACT, variational_flight
 
 UNINITIALISED = 0.0
@@ -344,19 +345,26 @@ class BallFlightEKF:
             F[:, j] = (self.propagate(xp, dt)[0] - fx) / eps
         return F
 
-    def process_noise(self, dt: float, bounced: bool) -> np.ndarray:
-        """Q(dt) [+ Q_bounce] of the module docstring."""
+    def noise_terms(self, dt: float, bounced: bool) -> tuple[float, float, float, float]:
+        """Q(dt) [+ Q_bounce]'s four values (module docstring): (q dt^3 / 3, q dt^2 / 2,
+        q dt [+ s_b^2], q_w dt [+ s_w^2]) on the blocks pp, pv, vv and ww."""
         c = self.config
         q = c.accel_noise
+        vv, ww = q * dt, c.spin_noise * dt
+        if bounced:
+            vv += c.bounce_velocity_sigma**2
+            ww += c.bounce_spin_sigma**2
+        return q * dt**3 / 3.0, q * dt**2 / 2.0, vv, ww
+
+    def process_noise(self, dt: float, bounced: bool) -> np.ndarray:
+        """Q(dt) [+ Q_bounce] of the module docstring, as a matrix."""
+        pp, pv, vv, ww = self.noise_terms(dt, bounced)
         Q = np.zeros((N_STATE, N_STATE))
         i3 = np.eye(3)
-        Q[:3, :3] = q * dt**3 / 3.0 * i3
-        Q[:3, 3:6] = Q[3:6, :3] = q * dt**2 / 2.0 * i3
-        Q[3:6, 3:6] = q * dt * i3
-        Q[6:9, 6:9] = c.spin_noise * dt * i3
-        if bounced:
-            Q[3:6, 3:6] += c.bounce_velocity_sigma**2 * i3
-            Q[6:9, 6:9] += c.bounce_spin_sigma**2 * i3
+        Q[:3, :3] = pp * i3
+        Q[:3, 3:6] = Q[3:6, :3] = pv * i3
+        Q[3:6, 3:6] = vv * i3
+        Q[6:9, 6:9] = ww * i3
         return Q
 
     def hypothesis_noise(self, dt: float) -> np.ndarray:
@@ -435,8 +443,8 @@ class BallFlightEKF:
             if bounced:
                 self.last_bounce_t = self.t + t_bounce
         self.x = fx
-        self.P = P + self.process_noise(dt, bounced)
-        self.P = 0.5 * (self.P + self.P.T)
+        self.P = np.empty((N_STATE, N_STATE))
+        add_process_noise(np.ascontiguousarray(P), *self.noise_terms(dt, bounced), self.P)
         self.t = t
 
     def _may_bounce(self, x: np.ndarray, P: np.ndarray) -> bool:

@@ -267,3 +267,26 @@ def flight_until(px, py, pz, vx, vy, vz, wx, wy, wz, k, c, g, dt, t, max_time, c
         px, py, pz, vx, vy, vz = npx, npy, npz, nvx, nvy, nvz
         t = t + h
     return UNTIL_TIME, t, h, px, py, pz, vx, vy, vz
+
+
+#: net_crossing_height's signature: the state (9), drag k, Magnus C_L, gravity, step h, at most
+#: ``steps`` steps and the contact height; returns a float.
+CROSSING_SIGNATURE = "float64(" + ", ".join(["float64"] * 13) + ", int64, float64)"
+
+
+@compiled(CROSSING_SIGNATURE)
+def net_crossing_height(px, py, pz, vx, vy, vz, wx, wy, wz, k, c, g, h, steps, contact_z):
+    """The centre's height where the flight crosses the net's plane y = 0 going +y, linearly
+    interpolated inside the RK4 step of ``h`` that crosses it; -inf if the centre first falls
+    below ``contact_z`` or ``steps`` steps pass (:func:`tt_drake.racket_law.net_clearance`)."""
+    for _ in range(steps):
+        npx, npy, npz, nvx, nvy, nvz = rk4_flight(px, py, pz, vx, vy, vz, wx, wy, wz, k, c, g,
+                                                   h, 1)
+        if npy >= 0.0 > py:
+            s = -py / (npy - py)
+            return pz + s * (npz - pz)
+        if npz < contact_z:
+            return -math.inf
+        px, py, pz, vx, vy, vz = npx, npy, npz, nvx, nvy, nvz
+    return -math.inf
+

@@ -34,6 +34,7 @@ import numpy as np
 
 from tt_drake.ball_model import BallModel, hunt_crossley_restitution
 from tt_drake.constants import BALL, NET, TABLE, TARGET
+from tt_drake.flight_kernel import net_crossing_height
 
 #: Effective Hunt-Crossley dissipation (s/m) of the racket as held by the controlled arm: fits
 #: the restitution measured in Drake (0.862, 0.781, 0.712 at 4, 8, 12 m/s) within 0.013.
@@ -120,11 +121,9 @@ class ReturnAim:
     landing: np.ndarray  # where the ball centre reaches table-contact height (x, y)
 
 
-def _fly(model: BallModel, p, v, duration: float, spin=(0.0, 0.0, 0.0),
-         h: float = 0.02) -> tuple:
-    """Ball position after ``duration`` seconds of free flight (no table), RK4 with step ~h."""
-    steps = max(1, int(math.ceil(duration / h)))
-    return model.fly(tuple(p), tuple(v), tuple(spin), duration / steps, steps)
+def _flight_steps(duration: float, h: float = 0.02) -> int:
+    """RK4 steps of about ``h`` for a flight of ``duration`` (s)."""
+    return max(1, int(math.ceil(duration / h)))
 
 
 def solve_outgoing_velocity(p_hit, target, flight_time: float, model: BallModel | None = None,
@@ -142,13 +141,14 @@ def solve_outgoing_velocity(p_hit, target, flight_time: float, model: BallModel 
     g = np.array([0.0, 0.0, -model.params.gravity])
     v = (goal - p - 0.5 * g * t * t) / t
     inv_jac = np.eye(3) / t
-    residual = np.array(_fly(model, p, v, t, spin)[0]) - goal
+    w, steps = tuple(float(c) for c in spin), _flight_steps(t)
+    residual = np.array(model.fly(tuple(p), tuple(v), w, t / steps, steps)[0]) - goal
     for _ in range(30):
         if np.linalg.norm(residual) < tol:
             return v
         step = -inv_jac @ residual
         v = v + step
-        new_residual = np.array(_fly(model, p, v, t, spin)[0]) - goal
+        new_residual = np.array(model.fly(tuple(p), tuple(v), w, t / steps, steps)[0]) - goal
         dr = new_residual - residual
         denom = float(step @ inv_jac @ dr)
         if abs(denom) > 1e-15:  # Broyden's "good" update of the inverse Jacobian
@@ -160,21 +160,15 @@ def solve_outgoing_velocity(p_hit, target, flight_time: float, model: BallModel 
 
 
 def net_clearance(model: BallModel, p, v, spin=(0.0, 0.0, 0.0)) -> float:
-    """Height of the ball's bottom above the net top when its centre crosses y = 0 (free flight;
-    -inf if it falls to the table height first)."""
-    pos, vel = tuple(p), tuple(v)
+    """Height of the ball's bottom above the net top when its centre crosses y = 0 (free flight
+    in RK4 steps of 10 ms, linear inside the crossing step; -inf if it falls to the table height
+    first)."""
+    params = model.params
     w = tuple(float(c) for c in spin)
-    contact_z = TABLE.surface_z + BALL.radius
-    for _ in range(200):
-        new_p, new_v = model.flight_step(pos, vel, w, 0.01)
-        if new_p[1] >= 0.0 > pos[1]:
-            s = -pos[1] / (new_p[1] - pos[1])
-            z = pos[2] + s * (new_p[2] - pos[2])
-            return z - BALL.radius - (TABLE.surface_z + NET.height)
-        if new_p[2] < contact_z:
-            return -math.inf
-        pos, vel = new_p, new_v
-    return -math.inf
+    z = net_crossing_height(float(p[0]), float(p[1]), float(p[2]), float(v[0]), float(v[1]),
+                            float(v[2]), w[0], w[1], w[2], params.drag_k, params.magnus_cl,
+                            params.gravity, 0.01, 200, TABLE.surface_z + BALL.radius)
+    return z - BALL.radius - (TABLE.surface_z + NET.height)
 
 
 def aim_rank(clearance: float, racket_velocity, min_clearance: float) -> tuple:

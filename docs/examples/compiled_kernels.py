@@ -10,10 +10,17 @@ arithmetic they replace, and their agreement (docs/performance.md, "Compiled ari
 - the arm's inverse dynamics for a 50-sample plan segment: ``HittingIK.torques`` (compiled RNEA,
   all samples in one call) against Drake's ``CalcInverseDynamics`` per sample;
 - a quintic segment at 81 times and at one (``Quintic.evaluate_many``, ``Quintic.evaluate``:
-  compiled) against its numpy array expressions (``quintic_many_numpy``).
+  compiled) against its numpy array expressions (``quintic_many_numpy``);
+- the racket's restitution (``racket_law.racket_restitution``: the compiled table lookup
+  ``interp_one``) against ``numpy.interp`` on the same table;
+- the teacher's net clearance (``racket_law.net_clearance``: the compiled net crossing) against
+  its loop of 10 ms flight steps;
+- the estimator's prediction noise (``add_process_noise``) against ``M = P + Q; (M + M^T) / 2``
+  in numpy.
 
-Each pair is checked: the flights, the bounce times and the quintic's values must be equal to
-the bit, the torques within 1e-9 N m; the script exits with status 1 otherwise.
+Each pair is checked: the flights, the bounce times, the quintic's values, the restitutions,
+the clearances and the covariances must be equal to the bit, the torques within 1e-9 N m; the
+script exits with status 1 otherwise.
 """
 
 from __future__ import annotations
@@ -25,9 +32,13 @@ import time
 import numpy as np
 from pydrake.multibody.tree import MultibodyForces
 
-from tt_drake.ball_model import BallModel
+from tt_drake.ball_model import BallModel, restitution_table
+from tt_drake.constants import BALL, NET, TABLE
+from tt_drake.estimation import N_STATE, BallFlightEKF
+from tt_drake.filter_kernel import add_process_noise
 from tt_drake.hitting_time import last_robot_bounce
 from tt_drake.quintic_kernel import quintic_many_numpy
+from tt_drake.racket_law import HELD_RACKET_DISSIPATION, net_clearance, racket_restitution
 from tt_drake.stages import Quintic
 from tt_drake.systems.hitting_ik import HittingIK
 
@@ -59,6 +70,20 @@ def _python_backward(model: BallModel, state, step: float, max_time: float = 1.0
         if pos[2] <= contact_z and model.over_table(pos[0], pos[1]):
             return t
     return None
+
+
+def _python_clearance(model: BallModel, pos, vel, w):
+    """net_clearance's loop of 10 ms Python-level steps."""
+    contact_z = TABLE.surface_z + BALL.radius
+    for _ in range(200):
+        new_p, new_v = model.flight_step(pos, vel, w, 0.01)
+        if new_p[1] >= 0.0 > pos[1]:
+            s = -pos[1] / (new_p[1] - pos[1])
+            return pos[2] + s * (new_p[2] - pos[2]) - BALL.radius - (TABLE.surface_z + NET.height)
+        if new_p[2] < contact_z:
+            return -np.inf
+        pos, vel = new_p, new_v
+    return -np.inf
 
 
 def main(argv=None) -> int:
@@ -135,6 +160,43 @@ def main(argv=None) -> int:
     one_c = _cpu_us(lambda: segment.evaluate(0.3), n)
     print(f"quintic segment, 81 times: numpy {many_np:.1f} us, compiled {many_c:.1f} us; one "
           f"time: numpy {one_np:.1f} us, compiled {one_c:.1f} us; equal to the bit: {same}")
+    ok &= same
+
+    dv, e = restitution_table()
+    speeds = rng.uniform(0.0, 30.0, 200).tolist()
+
+    def numpy_restitution():
+        return [float(np.interp(HELD_RACKET_DISSIPATION * abs(v), dv, e)) for v in speeds]
+
+    same = [racket_restitution(v) for v in speeds] == numpy_restitution()
+    interp_np = _cpu_us(numpy_restitution, max(1, n // 20)) / 200
+    interp_c = _cpu_us(lambda: [racket_restitution(v) for v in speeds], max(1, n // 20)) / 200
+    print(f"racket restitution: numpy.interp {interp_np:.2f} us, compiled {interp_c:.2f} us; "
+          f"equal to the bit: {same}")
+    ok &= same
+
+    start, out = (0.1, -1.6, 1.0), (-0.2, 5.0, 1.5)
+    same = net_clearance(model, start, out, w) == _python_clearance(model, start, out, w)
+    clear_py = _cpu_us(lambda: _python_clearance(model, start, out, w), n)
+    clear_c = _cpu_us(lambda: net_clearance(model, start, out, w), n)
+    print(f"net clearance: Python steps {clear_py:.1f} us, compiled {clear_c:.1f} us; equal to "
+          f"the bit: {same}")
+    ok &= same
+
+    ekf = BallFlightEKF()
+    P = rng.normal(0.0, 1.0, (N_STATE, N_STATE))
+    P_out = np.empty((N_STATE, N_STATE))
+
+    def numpy_noise():
+        M = P + ekf.process_noise(1 / 60, False)
+        return 0.5 * (M + M.T)
+
+    add_process_noise(P, *ekf.noise_terms(1 / 60, False), P_out)
+    same = bool(np.array_equal(P_out, numpy_noise()))
+    noise_np = _cpu_us(numpy_noise, n)
+    noise_c = _cpu_us(lambda: add_process_noise(P, *ekf.noise_terms(1 / 60, False), P_out), n)
+    print(f"prediction noise: numpy {noise_np:.1f} us, compiled {noise_c:.1f} us; equal to the "
+          f"bit: {same}")
     ok &= same
     return 0 if ok else 1
 
