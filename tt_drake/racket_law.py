@@ -121,9 +121,11 @@ class ReturnAim:
     landing: np.ndarray  # where the ball centre reaches table-contact height (x, y)
 
 
-def _flight_steps(duration: float, h: float = 0.02) -> int:
-    """RK4 steps of about ``h`` for a flight of ``duration`` (s)."""
-    return max(1, int(math.ceil(duration / h)))
+def _fly(model: BallModel, p, v, duration: float, spin=(0.0, 0.0, 0.0),
+         h: float = 0.02) -> tuple:
+    """Ball position after ``duration`` seconds of free flight (no table), RK4 with step ~h."""
+    steps = max(1, int(math.ceil(duration / h)))
+    return model.fly(tuple(p), tuple(v), tuple(spin), duration / steps, steps)
 
 
 def solve_outgoing_velocity(p_hit, target, flight_time: float, model: BallModel | None = None,
@@ -141,14 +143,13 @@ def solve_outgoing_velocity(p_hit, target, flight_time: float, model: BallModel 
     g = np.array([0.0, 0.0, -model.params.gravity])
     v = (goal - p - 0.5 * g * t * t) / t
     inv_jac = np.eye(3) / t
-    w, steps = tuple(float(c) for c in spin), _flight_steps(t)
-    residual = np.array(model.fly(tuple(p), tuple(v), w, t / steps, steps)[0]) - goal
+    residual = np.array(_fly(model, p, v, t, spin)[0]) - goal
     for _ in range(30):
         if np.linalg.norm(residual) < tol:
             return v
         step = -inv_jac @ residual
         v = v + step
-        new_residual = np.array(model.fly(tuple(p), tuple(v), w, t / steps, steps)[0]) - goal
+        new_residual = np.array(_fly(model, p, v, t, spin)[0]) - goal
         dr = new_residual - residual
         denom = float(step @ inv_jac @ dr)
         if abs(denom) > 1e-15:  # Broyden's "good" update of the inverse Jacobian
