@@ -79,12 +79,19 @@ class Chain:
     def torques(self, q, qd, qdd) -> np.ndarray:
         """tau (K, n) for samples (K, n) of q, q_dot, q_ddot (or one sample (n,) -> (n,))."""
         one = np.ndim(q) == 1
-        Q, Qd, Qdd = (np.ascontiguousarray(np.atleast_2d(x), dtype=float) for x in (q, qd, qdd))
+        Q, Qd, Qdd = (_samples(x) for x in (q, qd, qdd))
         tau = inverse_dynamics(Q, Qd, Qdd, self.parent, self.joint, self.rotation,
                                self.translation, self.axis_parent, self.axis_point, self.mass,
                                self.com, self.inertia, self.damping, self.reflected_inertia,
                                -self.gravity)
         return tau[0] if one else tau
+
+
+def _samples(x) -> np.ndarray:
+    """``x`` as a C-contiguous float (K, n) array the kernel accepts: copied if it is read-only
+    (a Drake log's data, a broadcast view), which the compiled signature does not take."""
+    a = np.ascontiguousarray(np.atleast_2d(x), dtype=float)
+    return a if a.flags.writeable else a.copy()
 
 
 @compiled(SIGNATURE)

@@ -48,6 +48,12 @@ def test_the_arms_chain_gives_drakes_inverse_dynamics():
     np.testing.assert_allclose(tau, expected, rtol=0.0, atol=1e-9)
     # One sample as (7,) arrays is the batch's row.
     np.testing.assert_array_equal(chain.torques(Q[3], V[3], A[3]), tau[3])
+    # Read-only samples (a Drake log's data is a read-only view) give the same torques.
+    frozen = [x.copy() for x in (Q, V, A)]
+    for x in frozen:
+        x.flags.writeable = False
+    np.testing.assert_array_equal(chain.torques(*frozen), tau)
+    np.testing.assert_array_equal(chain.torques(*(x[3] for x in frozen)), tau[3])
 
 
 def test_a_pendulum_obeys_its_equation_of_motion():

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from tt_drake.benchmarks import bench_momp_planning
+from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.imitation import quintic_demonstration
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "docs" / "examples"
@@ -159,3 +160,26 @@ def test_the_base_angle_the_hitting_postures_ask_for_grows_toward_the_forehand()
     stock = TeacherConfig().awaiting_base
     assert bases[0] < stock < bases[-1]
     assert abs(stock - middle) < abs(AWAITING[0] - middle)
+
+
+def test_the_limit_excursion_example_splits_the_wrists_command_into_its_terms():
+    """docs/examples/limit_excursions.py: on rally-train validation serve 14 of seed 5101 the
+    stock teacher's wrist passes its limit; the computed torque's own, coupling and bias terms
+    (the control plant's inverse dynamics, linear in the acceleration command) add up to the
+    command the controller logged, and the wrist's own term pulls it back toward its
+    set-point while the coupling pushes it on."""
+    spec = importlib.util.spec_from_file_location("example_limit_excursions",
+                                                  EXAMPLES / "limit_excursions.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    scenario = load_scenario("default")
+    scenario.launcher.distribution = "rally-train"
+    found, records = module.excursions(scenario, "analytical", 15, 5101, 1)
+    assert found >= 1 and len(records) == 1
+    r = records[0]
+    own, coupling, bias = r["terms"]
+    assert r["excess"] > 0.0
+    assert own + coupling + bias == pytest.approx(r["logged"][r["joint"]], abs=1e-6)
+    ahead = r["angle"] - r["setpoint"]
+    assert abs(ahead) > r["excess"]  # it ran past its set-point by more than past its limit
+    assert np.sign(own) == -np.sign(ahead) and np.sign(coupling) == np.sign(ahead)
