@@ -60,7 +60,13 @@ class ControllerConfig:
     ``drive_voltage`` (V): the arm's DC drives at this supply voltage limit each joint's torque
     by its speed (back EMF: none left at the no-load speed; :mod:`tt_drake.drives`), in the
     simulation and in the players' effort checks; 0: ideal drives, the effort limits only.
-    The default is Barrett's design voltage, 48 V (the WAM's supply takes 24-90 V)."""
+    The default is Barrett's design voltage, 48 V (the WAM's supply takes 24-90 V).
+
+    ``drive_aware``: correct the controller's torque, at every servo tick, for joints whose
+    drives clamp it (:mod:`tt_drake.systems.drive_correction`): the other joints then get the
+    torque of their commanded accelerations given what the clamped joints can do, instead of
+    the coupling of accelerations the clamped joints do not make. Off by default; it needs the
+    controller's model to be the arm's (``mass_scale`` and ``inertia_scale`` 1)."""
 
     kp: list[float] = field(default_factory=lambda: [900.0] * 7)
     ki: list[float] = field(default_factory=lambda: [0.0] * 7)
@@ -72,13 +78,22 @@ class ControllerConfig:
     coulomb_velocity: float = 0.1
     torque_noise: list[float] = field(default_factory=_zeros7)
     drive_voltage: float = DESIGN_VOLTAGE
+    drive_aware: bool = False
 
     def problems(self) -> list[str]:
         """What is wrong with the values: the ``controller.*`` rules of :data:`FIELD_RULES`
         (seven finite values per joint list, gains >= 0, kp and kd > 0, friction and noise in
         [0, the joint's effort limit], scales in [0.1, 10], coulomb_velocity in [0.01, 10],
-        drive_voltage 0 or in the supply's 24-90 V)."""
-        return rule_problems(self, "controller")
+        drive_voltage 0 or in the supply's 24-90 V), and ``drive_aware`` with a model
+        mismatch."""
+        return rule_problems(self, "controller") + self.combination_problems()
+
+    def combination_problems(self) -> list[str]:
+        """What is wrong with the values together: ``drive_aware`` with a model mismatch."""
+        if self.drive_aware and (self.mass_scale != 1.0 or self.inertia_scale != 1.0):
+            return ["controller.drive_aware needs the controller's model to be the arm's "
+                    "(mass_scale and inertia_scale 1)"]
+        return []
 
 
 @dataclass
@@ -483,6 +498,7 @@ def validate(scenario: Scenario, origin: object = "scenario") -> None:
     problems += scenario.camera.problems()
     problems += scenario.rally.competitive.problems()
     problems += scenario.launcher.problems()
+    problems += scenario.controller.combination_problems()
     if problems:
         raise ScenarioError(f"invalid scenario {origin}: " + "; ".join(problems))
 

@@ -56,6 +56,7 @@ from tt_drake.systems.rally_referee import RallyReferee
 from tt_drake.systems.referee import RacketCentre, Referee
 from tt_drake.systems.wam import (
     RACKET_CENTER_FRAME,
+    add_drive_correction,
     add_drive_limits,
     add_joint_faults,
     add_wam_controller,
@@ -282,12 +283,17 @@ def _add_controller(builder, scenario, world: World, robot, side: int, robots: i
     name = "wam_controller" if robots == 1 else f"wam_controller_{SIDES[side]}"
     controller = add_wam_controller(builder, world.plant, robot, c.kp, c.ki, c.kd, name=name,
                                     mass_scale=c.mass_scale, inertia_scale=c.inertia_scale)
-    station.inputs[arm_port(side, "desired_state")] = controller.get_input_port_desired_state()
-    station.inputs[arm_port(side, "desired_acceleration")] = (
-        controller.get_input_port_desired_acceleration())
-    station.outputs[arm_port(side, "torque")] = controller.GetOutputPort("actuation")
-    station.controllers.append(controller)
+    desired_state = controller.get_input_port_desired_state()
+    desired_acceleration = controller.get_input_port_desired_acceleration()
     torque = controller.GetOutputPort("actuation")
+    if c.drive_aware:
+        desired_state, desired_acceleration, torque = add_drive_correction(
+            builder, world.plant, robot, controller, torque, c.kp, c.kd, c.drive_voltage,
+            name="drive_correction" if robots == 1 else f"drive_correction_{SIDES[side]}")
+    station.inputs[arm_port(side, "desired_state")] = desired_state
+    station.inputs[arm_port(side, "desired_acceleration")] = desired_acceleration
+    station.outputs[arm_port(side, "torque")] = torque
+    station.controllers.append(controller)
     if c.drive_voltage:
         torque = add_drive_limits(builder, world.plant, robot, torque, c.drive_voltage,
                                   name="arm_drives" if robots == 1 else f"arm_drives_{SIDES[side]}")

@@ -33,6 +33,7 @@ from pydrake.systems.primitives import (
     Demultiplexer,
     MatrixGain,
     Multiplexer,
+    PassThrough,
     RandomSource,
     Saturation,
     SymbolicVectorSystem,
@@ -42,6 +43,8 @@ from pydrake.systems.primitives import (
 from tt_drake import wam_params as wp
 from tt_drake.constants import MOUNT
 from tt_drake.drives import DriveEnvelope
+from tt_drake.systems.arm_dynamics import chain_of
+from tt_drake.systems.drive_correction import DriveAwareCorrection
 
 MODEL_FILE = "wam7_racket.urdf"
 BASE_FRAME = wp.BASE_LINK  # "wam_base": the base plate
@@ -243,6 +246,36 @@ def add_drive_limits(builder: DiagramBuilder, plant: MultibodyPlant,
     builder.Connect(minus.get_output_port(), applied.get_input_port(1))
     builder.Connect(applied.get_output_port(), actuation)
     return applied.get_output_port()
+
+
+def add_drive_correction(builder: DiagramBuilder, plant: MultibodyPlant,
+                         instance: ModelInstanceIndex, controller, torque, kp=KP, kd=KD,
+                         voltage: float = 0.0, name: str = "drive_correction"):
+    """Add :class:`tt_drake.systems.drive_correction.DriveAwareCorrection` to ``controller``'s
+    torque: its desired state and acceleration are fed through C++ ``PassThrough`` systems that
+    feed the correction too, and a C++ ``Adder`` of ``torque`` (the output port now driving the
+    plant's actuation) and the correction drives the plant instead. The correction's model is
+    the control plant's default one. Returns (the desired state's and the desired
+    acceleration's input ports, the corrected torque's output port)."""
+    chain = chain_of(controller.get_multibody_plant_for_control())
+    drive = DriveEnvelope(voltage) if voltage else None
+    correction = builder.AddNamedSystem(name, DriveAwareCorrection(chain, kp, kd, drive))
+    desired = builder.AddNamedSystem(f"{name}_desired_state", PassThrough(2 * NUM_JOINTS))
+    acceleration = builder.AddNamedSystem(f"{name}_desired_acceleration",
+                                          PassThrough(NUM_JOINTS))
+    builder.Connect(desired.get_output_port(), controller.get_input_port_desired_state())
+    builder.Connect(desired.get_output_port(), correction.GetInputPort("desired_state"))
+    builder.Connect(acceleration.get_output_port(),
+                    controller.get_input_port_desired_acceleration())
+    builder.Connect(acceleration.get_output_port(),
+                    correction.GetInputPort("desired_acceleration"))
+    builder.Connect(plant.get_state_output_port(instance), correction.GetInputPort("state"))
+    actuation = _reroute_actuation(builder, plant, instance, torque)
+    total = builder.AddNamedSystem(f"{name}_sum", Adder(2, NUM_JOINTS))
+    builder.Connect(torque, total.get_input_port(0))
+    builder.Connect(correction.GetOutputPort("correction"), total.get_input_port(1))
+    builder.Connect(total.get_output_port(), actuation)
+    return desired.get_input_port(), acceleration.get_input_port(), total.get_output_port()
 
 
 def add_joint_faults(builder: DiagramBuilder, plant: MultibodyPlant,
