@@ -35,15 +35,18 @@ def test_replayed_setpoints_return_the_ball_to_the_same_spot():
     assert original.arm["saturated_fraction"] == 0.0
 
 
-def test_the_cpp_only_physics_diagram_is_the_episodes_physics_to_the_bit():
+@pytest.mark.parametrize("drive_aware", [False, True])
+def test_the_cpp_only_physics_diagram_is_the_episodes_physics_to_the_bit(drive_aware):
     """Replaying an episode's set-points for its duration, with the camera's 60 Hz events and the
     accuracy schedule between the referee's segments, the C++-only diagram ends with the ball
     and the arm exactly where the episode left them: the integrator met the same events, so
-    project / physics is the cost of the Python systems alone."""
+    project / physics is the cost of the Python systems alone. With the drive-aware correction
+    the physics diagram holds it too (its only Python system), and the same holds."""
     from tt_drake.diagrams.bench import PhysicsDiagram
     from tt_drake.serves import serve_sampler
 
     scenario = load_scenario()
+    scenario.controller.drive_aware = drive_aware
     seed = episode_seed(5, 0)
     played = ServeDiagram(scenario, "analytical", log_setpoints=True)
     original = played.run(seed)
