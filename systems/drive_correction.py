@@ -36,19 +36,10 @@ import numpy as np
 from pydrake.systems.framework import EventStatus, LeafSystem
 
 from tt_drake import wam_params as wp
-from tt_drake.drives import DriveEnvelope
+from tt_drake.drives import DriveEnvelope, EffortBudget
 from tt_drake.rnea import Chain
 
 _NOTHING = EventStatus.DidNothing()
-
-
-def drive_bounds(drive: DriveEnvelope | None):
-    """v -> (lower, upper) joint torques the drives give at joint speeds v (the effort limits
-    with ideal drives, ``drive`` None)."""
-    if drive is not None:
-        return drive.bounds
-    effort = np.asarray(wp.EFFORT_LIMIT, dtype=float)
-    return lambda _v: (-effort, effort)
 
 
 def clamped_correction(chain: Chain, bounds, q, v, vd) -> np.ndarray:
@@ -65,10 +56,7 @@ def clamped_correction(chain: Chain, bounds, q, v, vd) -> np.ndarray:
     clamped = first.copy()
     n = len(q)
     h = chain.torques(q, v, np.zeros(n))
-    gravity = chain.torques(q, np.zeros(n), np.zeros(n))
-    # Row k: the torques of a unit acceleration of joint k at rest, less gravity's: M's column
-    # k (M is symmetric).
-    M = chain.torques(np.tile(q, (n, 1)), np.zeros((n, n)), np.eye(n)) - gravity
+    M = chain.mass_matrix(q)
     wanted = tau.copy()
     for _ in range(n):
         free = ~clamped
@@ -102,7 +90,7 @@ class DriveAwareCorrection(LeafSystem):
         super().__init__()
         self.chain = chain
         self.kp, self.kd = np.asarray(kp, dtype=float), np.asarray(kd, dtype=float)
-        self.bounds = drive_bounds(drive)
+        self.bounds = EffortBudget(1.0, drive).bounds  # the drives' and the effort limits
         self._state = self.DeclareVectorInputPort("state", 2 * wp.NUM_JOINTS)
         self._desired = self.DeclareVectorInputPort("desired_state", 2 * wp.NUM_JOINTS)
         self._acceleration = self.DeclareVectorInputPort("desired_acceleration", wp.NUM_JOINTS)

@@ -347,7 +347,8 @@ class BallFlightEKF:
 
     def noise_terms(self, dt: float, bounced: bool) -> tuple[float, float, float, float]:
         """Q(dt) [+ Q_bounce]'s four values (module docstring): (q dt^3 / 3, q dt^2 / 2,
-        q dt [+ s_b^2], q_w dt [+ s_w^2]) on the blocks pp, pv, vv and ww."""
+        q dt [+ s_b^2], q_w dt [+ s_w^2]) on its blocks pp, pv, vv and ww, each times I_3
+        (:func:`tt_drake.filter_kernel.add_process_noise` adds them to P)."""
         c = self.config
         q = c.accel_noise
         vv, ww = q * dt, c.spin_noise * dt
@@ -355,17 +356,6 @@ class BallFlightEKF:
             vv += c.bounce_velocity_sigma**2
             ww += c.bounce_spin_sigma**2
         return q * dt**3 / 3.0, q * dt**2 / 2.0, vv, ww
-
-    def process_noise(self, dt: float, bounced: bool) -> np.ndarray:
-        """Q(dt) [+ Q_bounce] of the module docstring, as a matrix."""
-        pp, pv, vv, ww = self.noise_terms(dt, bounced)
-        Q = np.zeros((N_STATE, N_STATE))
-        i3 = np.eye(3)
-        Q[:3, :3] = pp * i3
-        Q[:3, 3:6] = Q[3:6, :3] = pv * i3
-        Q[3:6, 3:6] = vv * i3
-        Q[6:9, 6:9] = ww * i3
-        return Q
 
     def hypothesis_noise(self, dt: float) -> np.ndarray:
         """Q_hyp of the bounce hypothesis (module docstring): a velocity error sigma_h taken at

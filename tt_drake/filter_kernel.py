@@ -24,7 +24,7 @@ NOISE_SIGNATURE = ("void(float64[:, ::1], float64, float64, float64, float64, "
 @compiled(NOISE_SIGNATURE)
 def add_process_noise(P, pp, pv, vv, ww, P_out):
     """P- = ((P + Q) + (P + Q)^T) / 2 with Q = [[pp I, pv I, 0], [pv I, vv I, 0], [0, 0, ww I]]
-    (the prediction's noise, :meth:`tt_drake.estimation.BallFlightEKF.process_noise`): the
+    (the prediction's noise, :meth:`tt_drake.estimation.BallFlightEKF.noise_terms`): the
     elementwise arithmetic of ``M = P + Q; 0.5 * (M + M.T)``, so the same numbers to the bit."""
     n = P.shape[0]
     Q = np.zeros((n, n))

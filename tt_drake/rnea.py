@@ -86,6 +86,16 @@ class Chain:
                                -self.gravity)
         return tau[0] if one else tau
 
+    def mass_matrix(self, q) -> np.ndarray:
+        """M(q) (n, n): at rest tau(q, 0, q_ddot) = M(q) q_ddot + tau(q, 0, 0) (gravity only, no
+        Coriolis or damping), so column k is tau(q, 0, e_k) - tau(q, 0, 0); M is symmetric, and
+        its rows are those columns."""
+        q = np.asarray(q, dtype=float)
+        n = len(q)
+        rest = np.zeros((n + 1, n))
+        tau = self.torques(np.tile(q, (n + 1, 1)), rest, np.vstack([np.eye(n), np.zeros(n)]))
+        return tau[:n] - tau[n]
+
 
 def _samples(x) -> np.ndarray:
     """``x`` as a C-contiguous float (K, n) array the kernel accepts: copied if it is read-only

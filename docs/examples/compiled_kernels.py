@@ -187,8 +187,16 @@ def main(argv=None) -> int:
     P = rng.normal(0.0, 1.0, (N_STATE, N_STATE))
     P_out = np.empty((N_STATE, N_STATE))
 
+    pp, pv, vv, ww = ekf.noise_terms(1 / 60, False)
+    i3 = np.eye(3)
+
     def numpy_noise():
-        M = P + ekf.process_noise(1 / 60, False)
+        Q = np.zeros((N_STATE, N_STATE))
+        Q[:3, :3] = pp * i3
+        Q[:3, 3:6] = Q[3:6, :3] = pv * i3
+        Q[3:6, 3:6] = vv * i3
+        Q[6:9, 6:9] = ww * i3
+        M = P + Q
         return 0.5 * (M + M.T)
 
     add_process_noise(P, *ekf.noise_terms(1 / 60, False), P_out)

@@ -9,7 +9,7 @@ farthest past its limit:
   tau_j = sum_k M_jk(q) vd_k + b_j(q, v) with its acceleration command
   vd = qdd_d + kp (q_d - q) + kd (v_d - v), split into the joint's own term M_jj vd_j, the
   coupling sum_{k != j} M_jk vd_k and the bias b_j (gravity and Coriolis), from the control
-  plant's inverse dynamics (``HittingIK.torques``);
+  plant's inverse dynamics (``HittingIK.chain``: its mass matrix and ``torques``);
 - which joints' commands the drives clamped at that sample.
 
     OPENBLAS_NUM_THREADS=1 python docs/examples/limit_excursions.py --distribution rally-train \\
@@ -26,7 +26,7 @@ import numpy as np
 from tt_drake import wam_params as wp
 from tt_drake.diagrams.episodes import ServeDiagram
 from tt_drake.diagrams.scenario import load_scenario
-from tt_drake.drives import drive_envelope
+from tt_drake.drives import EffortBudget, drive_envelope
 from tt_drake.seeds import episode_seed
 from tt_drake.systems.hitting_ik import HittingIK
 from tt_drake.systems.wam import KD, KP
@@ -34,13 +34,11 @@ from tt_drake.systems.wam import KD, KP
 
 def torque_terms(ik: HittingIK, q, v, vd, joint: int) -> tuple[float, float, float]:
     """(own, coupling, bias) of joint ``joint``'s computed torque at (q, v) for the
-    acceleration command ``vd``: tau = M(q) vd + b(q, v) is linear in vd."""
-    bias = ik.torques(q, v, np.zeros(7))[joint]
-    own_vd = np.zeros(7)
-    own_vd[joint] = vd[joint]
-    own = ik.torques(q, v, own_vd)[joint] - bias
-    total = ik.torques(q, v, vd)[joint] - bias
-    return float(own), float(total - own), float(bias)
+    acceleration command ``vd``: M_jj vd_j, sum_{k != j} M_jk vd_k and b_j(q, v)."""
+    row = ik.chain.mass_matrix(q)[joint]
+    own = row[joint] * vd[joint]
+    bias = ik.torques(q, v, np.zeros(len(q)))[joint]
+    return float(own), float(row @ vd - own), float(bias)
 
 
 def excursions(scenario, player: str, serves: int, seed: int, show: int):
@@ -53,9 +51,8 @@ def excursions(scenario, player: str, serves: int, seed: int, show: int):
     if diagram.arm_logger is None:
         raise ValueError("the scenario has no robot")
     ik = HittingIK()
-    drive = drive_envelope(scenario.controller.drive_voltage)
+    bounds = EffortBudget(1.0, drive_envelope(scenario.controller.drive_voltage)).bounds
     lower, upper = np.asarray(wp.JOINT_LOWER), np.asarray(wp.JOINT_UPPER)
-    effort = np.asarray(wp.EFFORT_LIMIT)
     kp, kd = np.asarray(KP), np.asarray(KD)
     found, records = 0, []
     for i in range(serves):
@@ -75,7 +72,7 @@ def excursions(scenario, player: str, serves: int, seed: int, show: int):
         q_d, v_d, a_d = np.split(held.data()[:, s], 3)
         vd = a_d + kp * (q_d - q[k]) + kd * (v_d - v[k])
         tau = diagram.torque_logger.FindLog(diagram.context).data()[:, k]
-        low, high = drive.bounds(v[k]) if drive is not None else (-effort, effort)
+        low, high = bounds(v[k])
         records.append({"serve": i, "outcome": result.outcome.outcome, "joint": int(j),
                         "time": float(t[k]), "excess": float(excess[k, j]),
                         "setpoint": float(q_d[j]), "angle": float(q[k, j]),

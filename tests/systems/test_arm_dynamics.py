@@ -56,6 +56,18 @@ def test_the_arms_chain_gives_drakes_inverse_dynamics():
     np.testing.assert_array_equal(chain.torques(*(x[3] for x in frozen)), tau[3])
 
 
+def test_the_chains_mass_matrix_is_drakes():
+    plant = make_control_plant()
+    context = plant.CreateDefaultContext()
+    chain = chain_of(plant)
+    rng = np.random.default_rng(5)
+    for q in rng.uniform(-2.5, 2.5, (20, 7)):
+        plant.SetPositions(context, q)
+        M = chain.mass_matrix(q)
+        np.testing.assert_allclose(M, plant.CalcMassMatrix(context), rtol=0.0, atol=1e-9)
+        np.testing.assert_allclose(M, M.T, rtol=0.0, atol=1e-12)
+
+
 def test_a_pendulum_obeys_its_equation_of_motion():
     """tau = m l^2 q_ddot + m g l sin(q) + d q_dot for a point mass m at distance l."""
     m, l, g, d = 2.0, 0.5, 9.81, 0.3

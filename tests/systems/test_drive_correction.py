@@ -11,10 +11,10 @@ import pytest
 from tt_drake import wam_params as wp
 from tt_drake.diagrams.episodes import ServeDiagram
 from tt_drake.diagrams.scenario import ScenarioError, load_scenario, validate
-from tt_drake.drives import DriveEnvelope
+from tt_drake.drives import DriveEnvelope, EffortBudget
 from tt_drake.seeds import episode_seed
 from tt_drake.systems.arm_dynamics import chain_of
-from tt_drake.systems.drive_correction import clamped_correction, drive_bounds
+from tt_drake.systems.drive_correction import clamped_correction
 from tt_drake.systems.wam import make_control_plant
 
 CHAIN = chain_of(make_control_plant())
@@ -23,15 +23,12 @@ N = wp.NUM_JOINTS
 
 def _accelerations(q, v, tau):
     """Forward dynamics on the control plant's model: M(q)^-1 (tau - h(q, v))."""
-    zero = np.zeros(N)
-    gravity = CHAIN.torques(q, zero, zero)
-    M = CHAIN.torques(np.tile(q, (N, 1)), np.zeros((N, N)), np.eye(N)) - gravity
-    return np.linalg.solve(M, tau - CHAIN.torques(q, v, zero))
+    return np.linalg.solve(CHAIN.mass_matrix(q), tau - CHAIN.torques(q, v, np.zeros(N)))
 
 
 @pytest.mark.parametrize("drive", [DriveEnvelope(wp.DESIGN_VOLTAGE), None])
 def test_the_free_joints_get_their_commanded_accelerations_with_the_clamped_joints_at_bound(drive):
-    bounds = drive_bounds(drive)
+    bounds = EffortBudget(1.0, drive).bounds  # what the drives (or the effort limits) give
     rng = np.random.default_rng(3)
     clamped_cases = 0
     for _ in range(200):
