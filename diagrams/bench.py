@@ -53,6 +53,7 @@ from tt_drake.diagrams.python_calls import count_drake_calls
 from tt_drake.diagrams.scenario import ControllerConfig, Scenario
 from tt_drake.diagrams.station import add_station, arm_port
 from tt_drake.serves import serve_sampler
+from tt_drake.systems.joint_stops import JointStopsConfig
 from tt_drake.systems.wam import add_servo_hold, hold_first_setpoint
 from tt_drake.systems.world import (
     RECIPE_FLIGHT_ACCURACY,
@@ -85,6 +86,7 @@ class ReferenceDiagram:
         world_config = copy.copy(scenario.world)
         world_config.simulator = REFERENCE_SIMULATOR
         world_config.flight_accuracy = RECIPE_FLIGHT_ACCURACY  # one accuracy throughout
+        world_config.joint_stops = JointStopsConfig(enabled=False)  # the plant's joints alone
         # The station's plant and the arm's controller at the scenario's gains (its model exact,
         # no joint faults), without launcher, aerodynamics or referee: no Python system.
         reference = copy.copy(scenario)

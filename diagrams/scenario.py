@@ -415,6 +415,8 @@ FIELD_RULES: dict[str, Check] = {
     "world.simulator.start_time": number(minimum=0.0),
     "world.simulator.target_realtime_rate": number(minimum=0.0),
     "world.flight_accuracy": number(minimum=0.0, maximum=1.0),
+    "world.joint_stops.natural_frequency": number(above=0.0, maximum=1e4),
+    "world.joint_stops.dissipation": number(minimum=0.0, maximum=100.0),
     "world.models.table": check_model_file,
     "world.models.ball": check_model_file,
     "world.models.robot": check_model_file,

@@ -42,7 +42,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams
 from pydrake.systems.analysis import ApplySimulatorConfig
 from pydrake.systems.framework import BasicVector, Diagram, DiagramBuilder, LeafSystem
-from pydrake.systems.primitives import MatrixGain
+from pydrake.systems.primitives import Adder, MatrixGain
 
 from tt_drake.blas import one_blas_thread
 from tt_drake.diagrams.players import ControllerPorts, WorldPorts
@@ -52,6 +52,7 @@ from tt_drake.seeds import episode_seed
 from tt_drake.systems.aerodynamics import add_aerodynamics
 from tt_drake.systems.ball_camera import BallCamera
 from tt_drake.systems.ball_launcher import BallLauncher
+from tt_drake.systems.joint_stops import make_joint_stops
 from tt_drake.systems.rally_referee import RallyReferee
 from tt_drake.systems.referee import RacketCentre, Referee
 from tt_drake.systems.wam import (
@@ -172,8 +173,10 @@ def add_station(builder: DiagramBuilder, scenario, robots: int = 1, meshcat=None
     if launcher:
         station.launcher = builder.AddNamedSystem("ball_launcher",
                                                   BallLauncher(scenario.launcher))
+    forces = []  # the plant's applied generalized forces, summed below
     if aerodynamics:
-        add_aerodynamics(builder, world, scenario.aerodynamics)
+        forces.append(add_aerodynamics(builder, world, scenario.aerodynamics,
+                                       connect=False).get_output_port(0))
     ball = outputs["ball_state"] = plant.get_state_output_port(world.ball)
     outputs["contact_results"] = plant.get_contact_results_output_port()
     robot_instances = [r for r in (world.robot, world.robot_b) if r is not None]
@@ -208,6 +211,12 @@ def add_station(builder: DiagramBuilder, scenario, robots: int = 1, meshcat=None
         station.seeded.append(station_camera)
     for k, robot in enumerate(robot_instances):
         state = plant.get_state_output_port(robot)
+        if config.joint_stops.enabled:
+            stops = builder.AddNamedSystem(
+                "joint_stops" if robots == 1 else f"joint_stops_{SIDES[k]}",
+                make_joint_stops(plant, robot, config.joint_stops))
+            builder.Connect(state, stops.get_input_port())
+            forces.append(stops.get_output_port())
         if referee and robots == 2:
             builder.Connect(state, station.referee.GetInputPort(
                 f"robot_{SIDES[k].lower()}_state"))
@@ -216,10 +225,28 @@ def add_station(builder: DiagramBuilder, scenario, robots: int = 1, meshcat=None
             robot)
         if controllers:
             _add_controller(builder, scenario, world, robot, k, robots, station)
+    _apply_generalized_forces(builder, plant, forces)
     if meshcat is not None:
         station.visualizer = MeshcatVisualizer.AddToBuilder(
             builder, world.scene_graph, meshcat, MeshcatVisualizerParams())
     return station
+
+
+def _apply_generalized_forces(builder: DiagramBuilder, plant, forces: list) -> None:
+    """Drive the plant's applied generalized force with the sum of ``forces`` (output ports of
+    the plant's full generalized-force size): one port directly, several through a C++
+    ``Adder``."""
+    if not forces:
+        return
+    target = plant.get_applied_generalized_force_input_port()
+    if len(forces) == 1:
+        builder.Connect(forces[0], target)
+        return
+    total = builder.AddNamedSystem("applied_generalized_force",
+                                   Adder(len(forces), plant.num_velocities()))
+    for k, port in enumerate(forces):
+        builder.Connect(port, total.get_input_port(k))
+    builder.Connect(total.get_output_port(), target)
 
 
 def robots_of(config) -> int:

@@ -72,14 +72,17 @@ def make_aerodynamics(num_velocities: int, ball_velocity_start: int,
 
 
 def add_aerodynamics(builder, world, config: AerodynamicsConfig | None = None,
-                     name: str = "aerodynamics") -> Diagram:
-    """Add the aerodynamics for ``world``'s ball and wire it: ball state in, the plant's applied
-    generalized force out."""
+                     name: str = "aerodynamics", connect: bool = True) -> Diagram:
+    """Add the aerodynamics for ``world``'s ball and wire its input to the ball's state; with
+    ``connect`` its output drives the plant's applied generalized force (without, the caller
+    sums it with other generalized forces)."""
     plant = world.plant
     aero = make_aerodynamics(plant.num_velocities(),
                              world.ball_body.floating_velocities_start_in_v(), config)
     aero.set_name(name)
     builder.AddSystem(aero)
     builder.Connect(plant.get_state_output_port(world.ball), aero.get_input_port(0))
-    builder.Connect(aero.get_output_port(0), plant.get_applied_generalized_force_input_port())
+    if connect:
+        builder.Connect(aero.get_output_port(0),
+                        plant.get_applied_generalized_force_input_port())
     return aero

@@ -33,6 +33,7 @@ from pydrake.systems.framework import Diagram, DiagramBuilder, EventStatus
 from tt_drake.constants import BALL, NET, TABLE
 from tt_drake.errors import BadInputError
 from tt_drake.systems.hitting_ik import REACH_BOUND, SHOULDER
+from tt_drake.systems.joint_stops import JointStopsConfig
 from tt_drake.systems.wam import BASE_FRAME, add_wam, base_pose_in_world
 from tt_drake.wam_params import RACKET_CENTER_FRAME
 
@@ -70,6 +71,9 @@ class WorldConfig:
     # A second WAM at the other end of the table (the rally, docs/rally.md): the first one's
     # model and mount turned a half-turn about the vertical axis through the table centre.
     with_second_robot: bool = False
+    # The arm's mechanical stops at its joint limits (systems/joint_stops.py): the continuous
+    # plant ignores the limits the model file gives.
+    joint_stops: JointStopsConfig = field(default_factory=JointStopsConfig)
 
 
 #: ``WorldConfig.flight_accuracy`` of the simulation recipe itself: one accuracy throughout.

@@ -12,8 +12,12 @@ farthest past its limit:
   plant's inverse dynamics (``HittingIK.chain``: its mass matrix and ``torques``);
 - which joints' commands the drives clamped at that sample.
 
+With the arm's joint stops (the default: systems/joint_stops.py) a joint goes only the stop's
+few milliradians past its limit; ``--no-stops`` takes them out of the plant, to show how far the
+controller alone would take it.
+
     OPENBLAS_NUM_THREADS=1 python docs/examples/limit_excursions.py --distribution rally-train \\
-        --serves 40 --seed 5101 [--player analytical] [--scenario S] [--show 3]
+        --serves 40 --seed 5101 [--no-stops] [--player analytical] [--scenario S] [--show 3]
 """
 
 from __future__ import annotations
@@ -91,11 +95,15 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=5101)
     ap.add_argument("--scenario", default="default")
     ap.add_argument("--show", type=int, default=3, help="episodes to print (default 3)")
+    ap.add_argument("--no-stops", action="store_true",
+                    help="take the joint stops out of the plant")
     args = ap.parse_args(argv)
     if args.serves < 1 or args.show < 1:
         ap.error("--serves and --show must be >= 1")
     scenario = load_scenario(args.scenario)
     scenario.launcher.distribution = args.distribution
+    if args.no_stops:
+        scenario.world.joint_stops.enabled = False
     found, records = excursions(scenario, args.player, args.serves, args.seed, args.show)
     for r in records:
         j = r["joint"]

@@ -77,11 +77,13 @@ def test_an_episode_in_which_no_drive_clamps_is_the_controllers_to_the_bit():
 
 
 def test_the_stock_wrist_stays_inside_its_limits_where_the_plain_controller_passed_them():
-    """rally-train validation serve 16 of seed 5101: the plain controller drives joint 6 0.26 rad
-    past its limit while the base's drive brakes (docs/examples/limit_excursions.py)."""
+    """rally-train validation serve 16 of seed 5101, without the joint stops: the plain
+    controller drives joint 6 0.26 rad past its limit while the base's drive brakes
+    (docs/examples/limit_excursions.py --no-stops)."""
     plain = load_scenario("default")
     plain = dataclasses.replace(plain, launcher=dataclasses.replace(
         plain.launcher, distribution="rally-train"))
+    plain.world.joint_stops.enabled = False  # the plant alone: nothing stops the joint
     aware = dataclasses.replace(plain, controller=dataclasses.replace(plain.controller,
                                                                      drive_aware=True))
     before = _episode(plain, "analytical", 5101, 16)
