@@ -3,16 +3,16 @@ diagram, against diagrams measured in the same run.
 
 - The C++ reference has the same plant and contact model, and the arm under the same
   InverseDynamicsController, but follows a C++ ``TrajectorySource`` swing and has no Python
-  system (no aerodynamics, launcher or referee). It is integrated at the fixed
+  system (no aerodynamics, joint stops, launcher or referee). It is integrated at the fixed
   :data:`REFERENCE_SIMULATOR` recipe (RK3, accuracy 1e-4, max step 2 ms) whatever the scenario's
   simulator settings, so that the ratio to it shows progress across changes of the scenario. It
   runs the same serves for the same simulated durations (those the project's episodes ended
   at); the launcher's serve sampling is timed separately.
 - The C++-only physics diagram (:class:`PhysicsDiagram`): the serve diagram's physics (plant,
-  contact, aerodynamics, controller behind the servo hold, the camera's 60 Hz events, the
-  accuracy schedule) with C++ systems only, replaying the player's set-points, for the same
-  durations. project / physics is what the Python systems cost; physics / reference what the
-  project's physics adds to the reference's.
+  contact, aerodynamics, the scenario's joint stops, controller behind the servo hold, the
+  camera's 60 Hz events, the accuracy schedule) with C++ systems only, replaying the player's
+  set-points, for the same durations. project / physics is what the Python systems cost;
+  physics / reference what the project's physics adds to the reference's.
 - For a player other than idle: the idle diagram on the same serves (the arm holds still, so
   the ball flies past and the episode ends sooner), and the **replay**: the same serve diagram
   (world, aerodynamics, launcher, referee, controller, servo holds) with the player and its

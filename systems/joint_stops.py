@@ -27,6 +27,7 @@ import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import ModelInstanceIndex
 from pydrake.symbolic import Expression, MakeVectorVariable, if_then_else
+from pydrake.symbolic import abs as symbolic_abs
 from pydrake.symbolic import max as symbolic_max
 from pydrake.systems.primitives import SymbolicVectorSystem
 
@@ -64,15 +65,18 @@ def awaiting_inertia(plant: MultibodyPlant, instance: ModelInstanceIndex) -> np.
 
 def stop_torque(q, v, lower, upper, stiffness, dissipation: float):
     """The stops' torques (the module's law) as symbolic expressions of the positions ``q`` and
-    velocities ``v`` (symbolic variables)."""
+    velocities ``v`` (symbolic variables). Each joint's expression first asks whether the joint
+    is outside its range, |q - mid| > half-range, one look-up of q: the integrator evaluates the
+    law at every stage, nearly always inside the range, where this test is all it costs."""
     out = []
     for j in range(len(lower)):
-        above = q[j] - upper[j]
-        below = lower[j] - q[j]
-        push_down = symbolic_max(0.0, stiffness[j] * above * (1.0 + dissipation * v[j]))
-        push_up = symbolic_max(0.0, stiffness[j] * below * (1.0 - dissipation * v[j]))
-        out.append(if_then_else(q[j] > upper[j], -push_down, 0.0)
-                   + if_then_else(q[j] < lower[j], push_up, 0.0))
+        mid, half = 0.5 * (lower[j] + upper[j]), 0.5 * (upper[j] - lower[j])
+        push_down = -symbolic_max(0.0, stiffness[j] * (q[j] - upper[j])
+                                  * (1.0 + dissipation * v[j]))
+        push_up = symbolic_max(0.0, stiffness[j] * (lower[j] - q[j])
+                               * (1.0 - dissipation * v[j]))
+        out.append(if_then_else(symbolic_abs(q[j] - mid) > half,
+                                if_then_else(q[j] > mid, push_down, push_up), 0.0))
     return out
 
 

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tt_drake import wam_params as wp
 from tt_drake.benchmarks import bench_momp_planning
 from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.imitation import quintic_demonstration
@@ -183,3 +184,25 @@ def test_the_limit_excursion_example_splits_the_wrists_command_into_its_terms():
     ahead = r["angle"] - r["setpoint"]
     assert abs(ahead) > r["excess"]  # it ran past its set-point by more than past its limit
     assert np.sign(own) == -np.sign(ahead) and np.sign(coupling) == np.sign(ahead)
+
+
+def test_the_joint_stops_cost_example_compares_stations_that_agree_inside_the_limits():
+    """docs/examples/joint_stops_cost.py: inside the joint limits the stations with and without
+    the stops give the same derivatives to the bit; a wrist 10 mrad past its upper limit gets
+    the stop's torque, so its acceleration with the stops is lower by about k d / I."""
+    spec = importlib.util.spec_from_file_location("example_joint_stops_cost",
+                                                  EXAMPLES / "joint_stops_cost.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    with_stops, without = module.StationDerivatives(True), module.StationDerivatives(False)
+    assert module.same_inside_the_limits(with_stops, without, 20)
+    wrist = 5
+    for station in (with_stops, without):
+        station.q0 = station.q0.copy()
+        station.q0[wrist] = 1.6 + 0.01
+    nq = with_stops.world.plant.num_positions()
+    wrist_v = nq + with_stops.world.plant.GetJointByName(
+        wp.JOINT_NAMES[wrist], with_stops.world.robot).velocity_start()
+    drop = without.at(0)[wrist_v] - with_stops.at(0)[wrist_v]
+    k, inertia = 1640.0, 0.0182  # the stop's stiffness and the wrist's inertia (docs/constants.md)
+    assert 0.3 * k * 0.01 / inertia < drop < 3.0 * k * 0.01 / inertia
