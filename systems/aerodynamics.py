@@ -18,9 +18,9 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.symbolic import Expression, Variable, sqrt
 from pydrake.systems.framework import Diagram, DiagramBuilder
-from pydrake.systems.primitives import SymbolicVectorSystem
 
 from tt_drake.constants import BALL
+from tt_drake.systems.symbolic_law import symbolic_law
 
 
 @dataclass
@@ -54,14 +54,9 @@ def make_aerodynamics(num_velocities: int, ball_velocity_start: int,
     (``num_velocities``); ``ball_velocity_start``: the ball's first entry in the plant's v."""
     config = config or AerodynamicsConfig()
     state = np.array([Variable(f"x{i}") for i in range(13)])
-    # Drake (1.51) computes every subsystem's time derivatives, and a SymbolicVectorSystem
-    # without state fails there: it gets one constant continuous state (derivative zero, so it
-    # adds nothing to the integrator's error estimate).
-    constant = Variable("unused")
     # The force entries follow the ball's three torque entries.
-    law = SymbolicVectorSystem(state=[constant], dynamics=[Expression(0.0)], input=state,
-                               output=aerodynamic_force_expressions(
-                                   state, num_velocities, ball_velocity_start + 3, config, mass))
+    law = symbolic_law(state, aerodynamic_force_expressions(
+        state, num_velocities, ball_velocity_start + 3, config, mass))
     builder = DiagramBuilder()
     law = builder.AddNamedSystem("drag_and_magnus", law)
     builder.ExportInput(law.get_input_port(), "ball_state")

@@ -32,6 +32,7 @@ from pydrake.symbolic import max as symbolic_max
 from pydrake.systems.primitives import SymbolicVectorSystem
 
 from tt_drake import wam_params as wp
+from tt_drake.systems.symbolic_law import symbolic_law
 
 NUM_JOINTS = wp.NUM_JOINTS
 
@@ -95,7 +96,4 @@ def make_joint_stops(plant: MultibodyPlant, instance: ModelInstanceIndex,
     out = np.array([Expression(0.0)] * plant.num_velocities(), dtype=object)
     for joint, tau in zip(joints, torques, strict=True):
         out[joint.velocity_start()] = tau
-    # Drake (1.51) computes every subsystem's time derivatives, and a SymbolicVectorSystem
-    # without state fails there: one constant continuous state (derivative zero).
-    unused = MakeVectorVariable(1, "unused")
-    return SymbolicVectorSystem(state=unused, dynamics=[Expression(0.0)], input=x, output=out)
+    return symbolic_law(x, out)

@@ -25,7 +25,7 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import BodyIndex, ModelInstanceIndex, SpatialInertia
-from pydrake.symbolic import Expression, MakeVectorVariable, tanh
+from pydrake.symbolic import MakeVectorVariable, tanh
 from pydrake.systems.controllers import InverseDynamicsController
 from pydrake.systems.framework import Context, DiagramBuilder
 from pydrake.systems.primitives import (
@@ -36,7 +36,6 @@ from pydrake.systems.primitives import (
     PassThrough,
     RandomSource,
     Saturation,
-    SymbolicVectorSystem,
     ZeroOrderHold,
 )
 
@@ -45,6 +44,7 @@ from tt_drake.constants import MOUNT
 from tt_drake.drives import DriveEnvelope
 from tt_drake.systems.arm_dynamics import chain_of
 from tt_drake.systems.drive_correction import DriveAwareCorrection
+from tt_drake.systems.symbolic_law import symbolic_law
 
 MODEL_FILE = "wam7_racket.urdf"
 BASE_FRAME = wp.BASE_LINK  # "wam_base": the base plate
@@ -181,18 +181,14 @@ def add_wam_controller(builder: DiagramBuilder, plant: MultibodyPlant,
 
 
 def joint_friction_system(coulomb, viscous, velocity_scale: float):
-    """A C++ SymbolicVectorSystem: arm state (q, v) (14) -> joint friction torques (7),
-    ``tau_j = -c_j tanh(v_j / v_s) - b_j v_j`` (Coulomb friction smoothed over ``v_s``, plus
-    viscous friction).
-
-    The system carries one constant continuous state (zero derivative): Drake 1.51's stateless
-    SymbolicVectorSystem fails when a continuous diagram asks it for time derivatives."""
+    """A C++ SymbolicVectorSystem (:func:`tt_drake.systems.symbolic_law.symbolic_law`): arm
+    state (q, v) (14) -> joint friction torques (7), ``tau_j = -c_j tanh(v_j / v_s) - b_j v_j``
+    (Coulomb friction smoothed over ``v_s``, plus viscous friction)."""
     x = MakeVectorVariable(2 * NUM_JOINTS, "x")
     v = x[NUM_JOINTS:]
     tau = [-float(c) * tanh(v[j] / velocity_scale) - float(b) * v[j]
            for j, (c, b) in enumerate(zip(coulomb, viscous, strict=True))]
-    dummy = MakeVectorVariable(1, "unused")
-    return SymbolicVectorSystem(state=dummy, dynamics=[Expression(0.0)], input=x, output=tau)
+    return symbolic_law(x, tau)
 
 
 class TorqueNoise:

@@ -13,6 +13,7 @@ from tt_drake import wam_params as wp
 from tt_drake.benchmarks import bench_momp_planning
 from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.imitation import quintic_demonstration
+from tt_drake.systems.joint_stops import JointStopsConfig, awaiting_inertia, stop_stiffness
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "docs" / "examples"
 
@@ -107,8 +108,9 @@ def test_the_gym_episode_timer_times_each_episode_once(tmp_path):
     spec.loader.exec_module(module)
     out = tmp_path / "cpu.json"
     assert module.main(["--episodes", "2", "--seed", "5", "--action", "absolute",
-                        "--json", str(out)]) == 0
+                        "--scenario", "ideal_robot", "--json", str(out)]) == 0
     r = json.loads(out.read_text())
+    assert r["scenario"] == "ideal_robot"
     assert r["episodes"] == 2 and len(r["cpu"]) == 2 and all(c > 0.0 for c in r["cpu"])
     assert r["cpu_per_episode"] == pytest.approx(np.mean(r["cpu"]))
     with pytest.raises(SystemExit):
@@ -199,10 +201,12 @@ def test_the_joint_stops_cost_example_compares_stations_that_agree_inside_the_li
     wrist = 5
     for station in (with_stops, without):
         station.q0 = station.q0.copy()
-        station.q0[wrist] = 1.6 + 0.01
-    nq = with_stops.world.plant.num_positions()
-    wrist_v = nq + with_stops.world.plant.GetJointByName(
-        wp.JOINT_NAMES[wrist], with_stops.world.robot).velocity_start()
+        station.q0[wrist] = wp.JOINT_UPPER[wrist] + 0.01
+    plant, robot = with_stops.world.plant, with_stops.world.robot
+    wrist_v = plant.num_positions() + plant.GetJointByName(
+        wp.JOINT_NAMES[wrist], robot).velocity_start()
     drop = without.at(0)[wrist_v] - with_stops.at(0)[wrist_v]
-    k, inertia = 1640.0, 0.0182  # the stop's stiffness and the wrist's inertia (docs/constants.md)
+    # The wrist stop's stiffness and the wrist's inertia, as the stops take them.
+    inertia = awaiting_inertia(plant, robot)[wrist]
+    k = stop_stiffness([inertia], JointStopsConfig().natural_frequency)[0]
     assert 0.3 * k * 0.01 / inertia < drop < 3.0 * k * 0.01 / inertia
