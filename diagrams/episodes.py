@@ -121,8 +121,10 @@ def teacher_planner_config(scenario: Scenario) -> PlannerConfig:
                          torque_fraction=teacher.torque_fraction,
                          correction_torque_fraction=teacher.correction_torque_fraction,
                          drive_voltage=scenario.controller.drive_voltage,
-                         times=StageTimes(min_hitting=teacher.min_hitting),
-                         awaiting=(teacher.awaiting_base, *AWAITING[1:]))
+                         times=StageTimes(min_hitting=teacher.min_hitting,
+                                          direct_lead=teacher.direct_lead),
+                         awaiting=(teacher.awaiting_base, *AWAITING[1:]),
+                         posture_fallback=teacher.posture_fallback)
 
 
 def add_analytical_player(builder: DiagramBuilder, world: World, controller,

@@ -160,7 +160,12 @@ class TeacherConfig:
     above 0.9 a plan is followed with the arm's lag where it asks for more than the drives give
     after tracking errors ("Effort"); each at most 2. ``awaiting_base`` (rad): the base joint's
     angle in the teacher's awaiting posture, the rest of which is ``wam_params.AWAITING``'s; the
-    episode starts the arm there and every stroke returns there ("The awaiting posture")."""
+    episode starts the arm there and every stroke returns there ("The awaiting posture").
+    ``posture_fallback``: a correction refused in every stroke (and fallback) is tried again
+    with the arm nearest the committed stroke's posture in units of the joints' speed limits,
+    not the comfort posture ("Corrections"). ``direct_lead`` (s): a stroke with no time for a
+    swing-back waits at rest no later than this long before the hit; 0: until its hitting
+    stage's start ("Stages")."""
 
     correction_fallbacks: bool = True
     plan_fallbacks: bool = True
@@ -168,6 +173,8 @@ class TeacherConfig:
     torque_fraction: float = 1.2
     correction_torque_fraction: float = 1.2
     awaiting_base: float = -0.55
+    posture_fallback: bool = True
+    direct_lead: float = 0.5
 
 
 @dataclass
@@ -457,6 +464,7 @@ FIELD_RULES: dict[str, Check] = {
                              f"(got {v:g})")),
     "after_crossing": number(above=0.0, maximum=60.0),
     "teacher.min_hitting": number(minimum=0.0, maximum=StageTimes().hitting),
+    "teacher.direct_lead": number(minimum=0.0, maximum=2.0),
     "teacher.torque_fraction": number(above=0.0, maximum=2.0),
     "teacher.correction_torque_fraction": number(above=0.0, maximum=2.0),
     "teacher.awaiting_base": number(minimum=JOINT_LOWER[0] + JOINT_MARGIN,

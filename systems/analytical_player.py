@@ -147,6 +147,11 @@ class PlannerConfig:
     # ``torque_fraction``. A correction comes late, so the arm's lag when a plan asks for the
     # whole limit costs less than the ball the committed stroke would miss.
     correction_torque_fraction: float | None = None
+    # A correction the limits refuse in every stroke (with ``correction_fallbacks``, every
+    # fallback) is tried again with each arm solution nearest the committed stroke's posture in
+    # units of the joints' speed limits (:meth:`StrokePlanner.committed_posture`) instead of the
+    # comfort posture: the slow base joint then turns least when the bounce moves the hit.
+    posture_fallback: bool = False
     # The drives' supply voltage (V, tt_drake.drives): a plan must also stay within
     # ``supply_fraction`` of the supply at every joint speed, and each joint within that
     # share of its no-load speed; 0: ideal drives.
@@ -320,33 +325,47 @@ class StrokePlanner:
                 for aim in aim_candidates(p_hit, v_hit, (cfg.target_x, cfg.target_y),
                                           flight_times=cfg.flight_times, spin=spin)]
 
-    def stroke(self, p_hit, v_hit, t_hit, spin, previous: Stroke | None) -> Stroke | None:
+    def stroke(self, p_hit, v_hit, t_hit, spin, previous: Stroke | None,
+               near_previous: bool = False) -> Stroke | None:
         """Aim, racket and arm for a stimulus; None if the arm cannot reach it, or if the
         hitting point barely moved but the solution jumped to another arm configuration (the
         IK's local optimum moved, not the task).
 
         Small corrections keep the previous flight time (one Broyden solve); a hitting point that
-        moved more than ``research_distance`` searches all candidate flight times again."""
-        return next(self._solutions(p_hit, v_hit, t_hit, spin, previous), None)
+        moved more than ``research_distance`` searches all candidate flight times again.
+        ``near_previous``: the arm solution nearest ``previous``'s posture
+        (:meth:`committed_posture`) instead of the comfort posture."""
+        return next(self._solutions(p_hit, v_hit, t_hit, spin, previous, near_previous), None)
 
-    def strokes(self, p_hit, v_hit, t_hit, spin, previous: Stroke | None) -> Iterator[Stroke]:
+    def strokes(self, p_hit, v_hit, t_hit, spin, previous: Stroke | None,
+                near_previous: bool = False) -> Iterator[Stroke]:
         """Every stroke the arm reaches for a stimulus, in the fallbacks' order (:meth:`stroke`
         is the first): each spin share of ``stroke_spins`` with each of ``blade_offsets``, then
         the ``reach_in`` points; strokes that jump to another arm configuration for a hitting
         point that barely moved are left out. Solved lazily: a caller that takes the first
         stroke its own check accepts (:meth:`correct`'s effort check) solves no more."""
-        for stroke in self._solutions(p_hit, v_hit, t_hit, spin, previous):
+        for stroke in self._solutions(p_hit, v_hit, t_hit, spin, previous, near_previous):
             if stroke is not None:
                 yield stroke
 
-    def _solutions(self, p_hit, v_hit, t_hit, spin,
-                   previous: Stroke | None) -> Iterator[Stroke | None]:
+    def committed_posture(self, committed: Stroke) -> tuple[np.ndarray, np.ndarray]:
+        """The (q_c, w) of an arm solution nearest ``committed``'s posture
+        (:meth:`HittingIK.solve`): q_c = its theta_hit and w_j = 1 / v_j² for the joints' speed
+        limits v_j, so the solution minimises sum_j ((q_j - q_c,j) / v_j)², the squared times the
+        joints need at their limits to reach it from the committed posture."""
+        return (np.asarray(committed.q_hit, dtype=float),
+                1.0 / np.asarray(self.limits.velocity, dtype=float) ** 2)
+
+    def _solutions(self, p_hit, v_hit, t_hit, spin, previous: Stroke | None,
+                   near_previous: bool = False) -> Iterator[Stroke | None]:
         """Each arm solution of :meth:`strokes` as its stroke, in order, or None in its place
         when it jumped to another arm configuration; lazy, so :meth:`stroke` (the first item)
         solves no further."""
         close = previous is not None and float(
             np.linalg.norm(np.asarray(p_hit) - previous.p_hit)) < self.config.research_distance
         seed = previous.q_hit if previous is not None else None
+        posture = (self.committed_posture(previous) if near_previous and previous is not None
+                   else None)
         # The ball touches the blade face when its centre is R + t/2 in front of the blade centre.
         contact_offset = BALL.radius + 0.5 * wp.RACKET.blade_thickness
         spins, offsets = self.config.stroke_spins, self.config.blade_offsets
@@ -358,7 +377,8 @@ class StrokePlanner:
         spin = np.asarray(spin, dtype=float)
         for reach in (0.0, *self.config.reach_in):
             for found in self._feasible(reach_point(p_hit, reach), v_hit, spin, spins, offsets,
-                                        contact_offset, seed, previous if close else None):
+                                        contact_offset, seed, previous if close else None,
+                                        posture):
                 share, offset, v_out, spin_out, flight_time, racket, ik, qd_hit = found
                 if close and (np.abs(ik.q - previous.q_hit).max()
                               > self.config.max_branch_change):
@@ -373,19 +393,21 @@ class StrokePlanner:
                 yield stroke
 
     def _feasible(self, p_hit, v_hit, spin, spins, offsets, contact_offset, seed,
-                  previous) -> Iterator[tuple]:
+                  previous, posture=None) -> Iterator[tuple]:
         """Each (share, offset, v_out, spin_out, flight time, racket, IK, theta_dot_hit) the arm
         reaches within its joint speed limits, in order: for each spin share s and each blade
         offset in turn (shares outermost), every aim of :meth:`aims` for the spin s omega, best
         first, with its racket by the racket law and the blade centre of :func:`blade_centre`.
-        The first is the plain stroke (s = 1, the ball on the centre)."""
+        The first is the plain stroke (s = 1, the ball on the centre). ``posture``: the arm
+        solution's (q_c, w) (:meth:`committed_posture`; None: the comfort posture)."""
         for share in spins:
             compensated = share * spin
             aims = self._strokes(p_hit, v_hit, compensated, previous)
             for offset in offsets:
                 for v_out, spin_out, flight_time, racket in aims:
                     ik = self.arm.solve(blade_centre(p_hit, racket.normal, contact_offset,
-                                                     offset), racket.normal, q_seed=seed)
+                                                     offset), racket.normal,
+                                        q_seed=seed, posture=posture)
                     if not ik.success:
                         continue
                     qd_hit = self.hit_velocities(ik.q, racket.velocity)
@@ -501,16 +523,17 @@ class StrokeAims:
         self._chosen: dict[tuple[int, int], StrokePlanner | None] = {}
 
     def stroke(self, seed: int, index: int, p_hit, v_hit, t_hit, spin,
-               previous: Stroke | None = None) -> Stroke | None:
+               previous: Stroke | None = None, near_previous: bool = False) -> Stroke | None:
         """Stroke ``index``'s stroke (``aimed``) for the prediction (p_hit, v_hit, t_hit,
-        spin), by its aim's planner (a correction of ``previous``, a stroke of the same aim);
-        None if no drawn aim served the prediction the aim was chosen on (class docstring) or
-        the arm cannot make it for this one."""
+        spin), by its aim's planner (a re-plan of ``previous``, a stroke of the same aim, its
+        arm nearest ``previous``'s with ``near_previous``: :meth:`StrokePlanner.stroke`); None if
+        no drawn aim served the prediction the aim was chosen on (class docstring) or the arm
+        cannot make it for this one."""
         key = (int(seed), int(index))
         if key in self._chosen:
             planner = self._chosen[key]
             found = None if planner is None else planner.stroke(p_hit, v_hit, t_hit, spin,
-                                                                previous)
+                                                                previous, near_previous)
         else:
             planner, found = self._choose(seed, index, p_hit, v_hit, t_hit, spin)
             if len(self._chosen) > 256:  # derived planners, cheap to make again
@@ -613,20 +636,23 @@ class AnalyticalPlayer(SeedParameter, StagePlanPlayer):
         return context.get_abstract_state(self._state_index).get_value()
 
     def _strokes(self, context, old: PlayerState, p_hit, v_hit, t_hit, spin,
-                 fallbacks: bool = False) -> Iterator[Stroke | None]:
+                 fallbacks: bool = False,
+                 near_previous: bool = False) -> Iterator[Stroke | None]:
         """The strokes to try for the prediction, best first (None: the arm cannot reach it):
         the stroke's chosen aim's (when the player has ``aims``), then the planner's own aim's,
         with ``fallbacks`` each of its fallbacks the arm reaches (:meth:`StrokePlanner.strokes`).
-        Each planner corrects only a stroke it planned itself (``Stroke.aimed``)."""
+        Each planner corrects only a stroke it planned itself (``Stroke.aimed``);
+        ``near_previous``: each arm solution nearest that stroke's posture
+        (:meth:`StrokePlanner.committed_posture`)."""
         if self._aims is not None:
             previous = old.stroke if old.stroke is not None and old.stroke.aimed else None
             yield self._aims.stroke(self.seed(context), old.strokes, p_hit, v_hit, t_hit, spin,
-                                    previous)
+                                    previous, near_previous)
         previous = old.stroke if old.stroke is not None and not old.stroke.aimed else None
         if fallbacks:
-            yield from self.planner.strokes(p_hit, v_hit, t_hit, spin, previous)
+            yield from self.planner.strokes(p_hit, v_hit, t_hit, spin, previous, near_previous)
         else:
-            yield self.planner.stroke(p_hit, v_hit, t_hit, spin, previous)
+            yield self.planner.stroke(p_hit, v_hit, t_hit, spin, previous, near_previous)
 
     def _update(self, context, state):
         old = self.player_state(context)
@@ -729,10 +755,14 @@ class AnalyticalPlayer(SeedParameter, StagePlanPlayer):
         # bounce the prediction can move by several centimetres (spin about the ball's direction
         # of travel makes no Magnus force, so the filter sees it only in the bounce), and the
         # full correction may ask the shoulder for more than the committed stroke left it.
-        for stroke in self._strokes(context, old, p_hit, v_hit, t_hit, spin,
-                                    fallbacks=cfg.correction_fallbacks):
-            plan = None if stroke is None else self.planner.correct(now, old.plan, stroke)
-            if plan is not None:
-                state.get_mutable_abstract_state(self._state_index).set_value(
-                    PlayerState(plan, stroke, True, seen, bounces, old.strokes))
-                return
+        # With ``posture_fallback``, when every stroke is refused they are tried again with the
+        # arm nearest the committed posture: the base, the slowest joint, then turns least.
+        for near_committed in (False, True) if cfg.posture_fallback else (False,):
+            for stroke in self._strokes(context, old, p_hit, v_hit, t_hit, spin,
+                                        fallbacks=cfg.correction_fallbacks,
+                                        near_previous=near_committed):
+                plan = None if stroke is None else self.planner.correct(now, old.plan, stroke)
+                if plan is not None:
+                    state.get_mutable_abstract_state(self._state_index).set_value(
+                        PlayerState(plan, stroke, True, seen, bounces, old.strokes))
+                    return

@@ -278,10 +278,12 @@ class HittingIK:
         both in the world frame."""
         return self.jacobian(q) @ np.asarray(qdot, dtype=float).reshape(NUM_JOINTS)
 
-    def cost(self, q) -> float:
-        """(q - q_c)ᵀ diag(w) (q - q_c)."""
-        d = np.asarray(q, dtype=float) - self.comfort
-        return float(d @ (self.weights * d))
+    def cost(self, q, posture=None) -> float:
+        """(q - q_c)ᵀ diag(w) (q - q_c), with ``posture`` = (q_c, w) if given (:meth:`solve`),
+        else the comfort posture and its weights."""
+        comfort, weights = (self.comfort, self.weights) if posture is None else posture
+        d = np.asarray(q, dtype=float) - comfort
+        return float(d @ (weights * d))
 
     # ----------------------------------------------------------------------------- positions
     def _evaluate(self, q, p_hit, normal) -> tuple[float, float, bool]:
@@ -293,7 +295,8 @@ class HittingIK:
         ok = position_error <= POSITION_TOLERANCE and angle_error <= ANGLE_TOLERANCE and inside
         return position_error, angle_error, ok
 
-    def _solve_once(self, p_hit, normal, seed) -> np.ndarray:
+    def _solve_once(self, p_hit, normal, seed, posture=None) -> np.ndarray:
+        comfort, weights = (self.comfort, self.weights) if posture is None else posture
         ik = InverseKinematics(self.plant, self.context, with_joint_limits=False)
         q = ik.q()
         ik.AddPositionConstraint(self._frame_c, np.zeros(3), self._world,
@@ -302,11 +305,11 @@ class HittingIK:
                                             np.array([0.0, 1.0, 0.0]), 0.0, _SOLVER_ANGLE_BOUND)
         prog = ik.get_mutable_prog()
         prog.AddBoundingBoxConstraint(self.lower, self.upper, q)
-        prog.AddQuadraticErrorCost(np.diag(self.weights), self.comfort, q)
+        prog.AddQuadraticErrorCost(np.diag(weights), comfort, q)
         result = self._solver.Solve(prog, seed, self.solver_options)
         return np.asarray(result.GetSolution(q), dtype=float)
 
-    def _multistart(self, p_hit, normal, seeds) -> tuple[tuple, int]:
+    def _multistart(self, p_hit, normal, seeds, posture=None) -> tuple[tuple, int]:
         """Solve from each distinct start in turn until one passes the check; returns
         ((badness, q, position_error, angle_error, ok), attempts) of the success, or of the
         attempt closest to the request (badness = position error + 0.1 m/rad x angle error,
@@ -317,7 +320,7 @@ class HittingIK:
             if any(np.array_equal(seed, t) for t in tried):
                 continue
             tried.append(seed)
-            q = self._solve_once(p_hit, normal, seed)
+            q = self._solve_once(p_hit, normal, seed, posture)
             position_error, angle_error, ok = self._evaluate(q, p_hit, normal)
             badness = position_error + 0.1 * angle_error
             if best is None or ok or badness < best[0]:
@@ -326,9 +329,13 @@ class HittingIK:
                 break
         return best, len(tried)
 
-    def solve(self, p_hit, normal, q_seed=None) -> IKSolution:
+    def solve(self, p_hit, normal, q_seed=None, posture=None) -> IKSolution:
         """Joint angles putting the racket centre at ``p_hit`` (m, world) with ``y_C`` along
         ``normal`` (world; need not be unit), closest to the comfort posture (module docstring).
+        ``posture``: (q_c, w) in the cost instead of the comfort posture and its weights, for
+        this request (the teacher's corrections: the posture nearest the committed one, in units
+        of each joint's speed limit); the null-space motion of the velocity problem keeps
+        pulling toward :attr:`comfort`.
 
         Starts from ``q_seed`` (e.g. the previous stroke's answer) if given, else the comfort
         posture; on failure the :attr:`fallback_seeds` are tried in turn. The first start whose
@@ -348,11 +355,11 @@ class HittingIK:
             best = (0.0, seeds[0], *self._evaluate(seeds[0], p_hit, normal))
             attempts = 0
         else:
-            best, attempts = self._multistart(p_hit, normal, seeds)
+            best, attempts = self._multistart(p_hit, normal, seeds, posture)
         _, q, position_error, angle_error, ok = best
         return IKSolution(
             q=q, success=ok, position_error=position_error, angle_error=angle_error,
-            cost=self.cost(q),
+            cost=self.cost(q, posture),
             limit_margin=float(np.min(np.minimum(q - JOINT_LOWER, JOINT_UPPER - q))),
             attempts=attempts, solve_ms=1e3 * (time.perf_counter() - start))
 

@@ -178,6 +178,11 @@ class StageTimes:
     # 0: the hitting stage always lasts ``hitting``; a duration: it is shortened, to no less
     # than this, where a joint's swing-back is clipped at its limit (:func:`hitting_duration`).
     min_hitting: float = 0.0
+    # With no time for a swing-back, the arm waits at rest for a better prediction until the
+    # hitting stage's start, and no later than this long before the hit (s): a direct hit
+    # started then leaves a slow joint time for the corrections after the bounce. 0: until the
+    # hitting stage's start (:func:`plan_stroke`).
+    direct_lead: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -218,8 +223,9 @@ def plan_stroke(now: float, state: tuple, t_hit: float, q_hit, qd_hit, q_await,
     enough time before then: ``min_preparation``, or longer if the distance to q_prep needs it
     (:meth:`JointLimits.move_time`); an ongoing one (``preparing``) is re-planned until
     ``min_replan`` before its end. Otherwise, at rest and if ``allow_wait``, it returns None: wait
-    (keep the current plan, re-plan at the next prediction) until the hitting stage's start; the
-    caller decides whether waiting is safe (a direct hit started later must still be feasible).
+    (keep the current plan, re-plan at the next prediction) until the hitting stage's start and
+    while more than ``times.direct_lead`` is left before the hit; the caller decides whether
+    waiting is safe (a direct hit started later must still be feasible).
     Without a swing-back the hitting segment starts from ``state`` and lasts until t_hit,
     possibly longer than T_hit.
     """
@@ -238,7 +244,7 @@ def plan_stroke(now: float, state: tuple, t_hit: float, q_hit, qd_hit, q_await,
         prep = Quintic.fit(now, t_start_hit - now, q, qd, qdd, q_prep, zero, zero)
         segments.append((PREPARATION, prep))
         start = (q_prep, zero, zero, t_start_hit)
-    elif allow_wait and not preparing and t_start_hit > now:
+    elif allow_wait and not preparing and t_start_hit > now and t_hit - now > times.direct_lead:
         return None  # at rest: wait, re-planning meanwhile, until the hit must start
     else:
         if t_hit - now <= 1e-3:

@@ -140,6 +140,7 @@ def test_latency_counts_whole_frames():
     ("teacher: {torque_fraction: 2.5}", "teacher.torque_fraction"),
     ("teacher: {awaiting_base: 2.7}", "teacher.awaiting_base"),
     ("teacher: {awaiting_base: .nan}", "teacher.awaiting_base"),
+    ("teacher: {direct_lead: -0.1}", "teacher.direct_lead"),
     ("learned: {supply_fraction: 0.0}", "learned.supply_fraction"),
     ("learned: {supply_fraction: 4.0}", "learned.supply_fraction"),
 ])

@@ -186,3 +186,76 @@ def test_corrections_are_checked_against_their_own_share_of_the_effort_limits():
     assert np.abs(default.player_state(context).stroke.q_hit - kept.stroke.q_hit).max() > 1e-3
     shared = StrokePlanner(config=PlannerConfig(torque_fraction=0.8))
     assert shared.correction_budget == shared.effort_budget
+
+
+def test_an_arm_solution_nearest_the_committed_posture_turns_the_slow_base_less():
+    """``near_previous`` solves each arm nearest the previous stroke's posture in units of the
+    joints' speed limits (:meth:`StrokePlanner.committed_posture`): for a hitting point the
+    bounce moved 8 cm toward the forehand, the answer minimises sum_j ((q_j - q_prev,j) / v_j)^2
+    for the stock drives' speed limits v_j (the base's the smallest), so by that measure it is
+    no worse than the comfort posture's answer, and it turns the base less, for the same racket
+    state at the same point. Without it every stroke is the comfort posture's."""
+    planner = StrokePlanner(config=PlannerConfig(drive_voltage=48.0))
+    speed = planner.limits.velocity
+    assert np.argmin(speed) == 0  # the base is the slowest joint
+    hit = planner_ball_model().predict_plane(np.array(FIXED_SERVE), PLANES.hitting_y)
+    p, v, t, w = hit.position, hit.velocity, hit.t, hit.spin
+    first = planner.stroke(p, v, t, w, None)
+    np.testing.assert_array_equal(planner.stroke(p, v, t, w, None, near_previous=True).q_hit,
+                                  first.q_hit)  # nothing to be near: the comfort posture's
+    moved = p + np.array([0.08, 0.0, 0.0])
+    plain = planner.stroke(moved, v, t, w, first)
+    near = planner.stroke(moved, v, t, w, first, near_previous=True)
+    q_c, weights = planner.committed_posture(first)
+    np.testing.assert_array_equal(q_c, first.q_hit)
+    np.testing.assert_allclose(weights, 1.0 / speed**2)
+
+    def time_cost(q):
+        return float(np.sum(((q - first.q_hit) / speed) ** 2))
+
+    assert time_cost(near.q_hit) <= time_cost(plain.q_hit) + 1e-9
+    assert abs(near.q_hit[0] - first.q_hit[0]) < abs(plain.q_hit[0] - first.q_hit[0])
+    np.testing.assert_allclose(near.racket_normal, plain.racket_normal, atol=1e-12)
+    np.testing.assert_allclose(planner.arm.racket_pose(near.q_hit).translation(),
+                               planner.arm.racket_pose(plain.q_hit).translation(), atol=2e-4)
+
+
+class _SlowBase(StrokePlanner):
+    """A planner whose limits refuse every correction solved nearest the comfort posture: the
+    committed plan's base cannot turn as far as that posture asks."""
+
+    def correct(self, now, current, stroke):
+        near = np.allclose(stroke.q_hit, self.last_near) if self.last_near is not None else False
+        return super().correct(now, current, stroke) if near else None
+
+    def _solutions(self, p_hit, v_hit, t_hit, spin, previous, near_previous=False):
+        for stroke in super()._solutions(p_hit, v_hit, t_hit, spin, previous, near_previous):
+            self.last_near = stroke.q_hit if (near_previous and stroke is not None) else None
+            yield stroke
+
+    last_near = None
+
+
+@pytest.mark.parametrize("fallback", [True, False])
+def test_a_correction_refused_in_every_stroke_is_tried_nearest_the_committed_posture(fallback):
+    """With ``posture_fallback`` a correction whose every stroke (and fallback) the limits
+    refuse is tried again with the arm nearest the committed posture, and that plan is played
+    to its (theta_hit, theta_dot_hit) at its t_hit; without it the committed stroke is kept."""
+    kept_player, kept_context, _ = run_serve(0.0)
+    kept = kept_player.player_state(kept_context)
+    planner = _SlowBase(config=PlannerConfig(correction_fallbacks=True, posture_fallback=fallback))
+    player, context, samples = run_serve(np.array([40.0, 0.0, 0.0]), AnalyticalPlayer(planner))
+    state = player.player_state(context)
+    assert state.committed
+    if not fallback:
+        np.testing.assert_array_equal(state.stroke.q_hit, kept.stroke.q_hit)
+        return
+    stroke = state.stroke
+    assert np.linalg.norm(stroke.spin - kept.stroke.spin) > 20.0  # planned on the moved spin
+    hits = [seg for stage, seg in state.plan.segments if stage == HITTING]
+    assert len(hits) >= 2
+    q_end, qd_end, _ = hits[-1].evaluate(stroke.t_hit)
+    np.testing.assert_allclose(q_end, stroke.q_hit, atol=1e-9)
+    np.testing.assert_allclose(qd_end, stroke.qd_hit, atol=1e-9)
+    q = np.array([s[1][:7] for s in samples])
+    assert np.abs(np.diff(q, axis=0)).max() < 10.0 * 2e-3

@@ -130,6 +130,26 @@ def test_warm_start_from_a_neighbouring_answer(ik):
     assert np.max(np.abs(second.q - first.q)) < 0.2  # same branch, small step
 
 
+def test_a_requests_posture_replaces_the_comfort_posture_in_the_cost(ik):
+    """``solve(posture=(q_c, w))`` minimises (q - q_c)^T diag(w) (q - q_c) instead of the comfort
+    cost: each answer is at least as good as the other's under its own cost, and a heavy weight
+    on the base joint keeps it nearer its q_c than the comfort answer does."""
+    p = np.array([0.25, PLANES.hitting_y, 1.0])
+    plain = ik.solve(p, _toward_target(p))
+    p2 = p + [0.12, 0.0, -0.05]  # the hitting point moved toward the forehand
+    n2 = _toward_target(p2)
+    comfort = ik.solve(p2, n2, q_seed=plain.q)
+    posture = (plain.q, np.array([100.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0]))
+    near = ik.solve(p2, n2, q_seed=plain.q, posture=posture)
+    assert plain.success and comfort.success and near.success
+    assert near.cost == pytest.approx(ik.cost(near.q, posture))
+    assert ik.cost(near.q, posture) <= ik.cost(comfort.q, posture) + 1e-9
+    assert ik.cost(comfort.q) <= ik.cost(near.q) + 1e-9
+    assert abs(near.q[0] - plain.q[0]) < abs(comfort.q[0] - plain.q[0])
+    # Without a posture the answer is the comfort posture's, to the bit.
+    np.testing.assert_array_equal(ik.solve(p2, n2, q_seed=plain.q, posture=None).q, comfort.q)
+
+
 def test_snopts_print_level_does_not_change_an_answer(ik):
     """The solver runs at major print level 0 (``SNOPT_OPTIONS``): with the default level, the
     same requests, from the comfort start and warm-started from a neighbour's answer, give the

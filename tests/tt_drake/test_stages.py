@@ -113,6 +113,41 @@ def test_at_rest_with_too_little_time_for_a_swing_back_the_player_waits():
     assert plan.segments[0][0] == PREPARATION
 
 
+def test_a_direct_hit_waits_no_later_than_its_lead_before_the_hit():
+    """With ``direct_lead`` the arm at rest with no time for a swing-back waits only while more
+    than that is left before the hit (and the hitting stage has not begun); then the direct hit
+    starts from rest at ``now`` and arrives at (q_hit, qd_hit) at t_hit. With a swing-back's
+    time the lead changes nothing."""
+    rest = (Q_AWAIT, np.zeros(7), np.zeros(7))
+    q_hit, qd_hit = Q_AWAIT + 0.3, np.ones(7)
+    t = StageTimes(min_hitting=0.1, direct_lead=0.5)
+    # joints with little room behind the hit shorten the hitting stage (2.5 room / |qd|)
+    clipped = q_hit.copy()
+    clipped[5] = LIMITS.lower[5] + LIMITS.margin + 0.1
+    t_hitting = hitting_duration(clipped, 10 * qd_hit, LIMITS, t)
+    assert t_hitting < 0.45  # so every t_hit below leaves the stage time to wait for
+    for now, t_hit, waits in ((0.0, 0.55, True), (0.0, 0.5, False), (0.0, 0.45, False)):
+        for times, expected in ((t, waits), (StageTimes(min_hitting=0.1), True)):
+            if t_hit - now <= t_hitting:
+                continue
+            plan = plan_stroke(now, rest, t_hit, clipped, 10 * qd_hit, Q_AWAIT, LIMITS, times)
+            if expected:
+                assert plan is None
+                continue
+            stage, hit = plan.segments[0]
+            assert stage == HITTING and hit.t0 == now and hit.duration == pytest.approx(t_hit)
+            q_end, qd_end, _ = hit.evaluate(t_hit)
+            np.testing.assert_allclose(q_end, clipped, atol=1e-10)
+            np.testing.assert_allclose(qd_end, 10 * qd_hit, atol=1e-9)
+    # time for a swing-back: the lead does not matter
+    early = plan_stroke(0.0, rest, 1.2, q_hit, qd_hit, Q_AWAIT, LIMITS, t)
+    assert early.segments[0][0] == PREPARATION
+    np.testing.assert_array_equal(
+        early.evaluate(0.9)[0],
+        plan_stroke(0.0, rest, 1.2, q_hit, qd_hit, Q_AWAIT, LIMITS,
+                    StageTimes(min_hitting=0.1)).evaluate(0.9)[0])
+
+
 def test_a_fast_hit_near_a_limit_stops_inside_it():
     q_hit = np.full(7, 2.2)  # 0.25 rad from the margin, moving toward the limit at 3 rad/s
     plan = plan_stroke(0.0, (Q_AWAIT, np.zeros(7), np.zeros(7)), 0.8, q_hit, np.full(7, 3.0),
