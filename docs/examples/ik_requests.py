@@ -31,9 +31,9 @@ def count_requests(scenario, serves: int, seed: int) -> dict:
               "outside_the_wrists_reach": 0, "cpu_solved": 0.0, "cpu_failed": 0.0}
     solve = HittingIK.solve
 
-    def counted(self, p_hit, normal, q_seed=None):
+    def counted(self, p_hit, normal, q_seed=None, posture=None):
         c0 = time.process_time()
-        answer = solve(self, p_hit, normal, q_seed)
+        answer = solve(self, p_hit, normal, q_seed, posture)
         cpu = time.process_time() - c0
         counts["requests"] += 1
         counts["outside_the_wrists_reach"] += not self.may_reach(p_hit, normal)

@@ -55,19 +55,21 @@ def test_a_player_needs_a_name(name):
 
 def test_the_scenarios_teacher_settings_reach_the_analytical_player():
     """``teacher`` (the stock robot's settings by default; the shipped ``ideal_robot``
-    scenario's teacher plays no refused plan's fallbacks, keeps 0.9 of the effort limits and
-    waits at wam_params.AWAITING) is the teacher's planner setting in the serve diagram, which
+    scenario's teacher plays no refused plan's fallbacks, keeps 0.9 of the effort limits, waits
+    at wam_params.AWAITING, for a direct hit until its hitting stage's start, and corrects only
+    nearest the comfort posture) is the teacher's planner setting in the serve diagram, which
     keeps aiming at the scenario's referee target."""
     from tt_drake.diagrams.episodes import ServeDiagram
 
-    for name, on, min_hitting, fraction, base in (("default", True, 0.1, 1.2, -0.55),
-                                                  ("ideal_robot", False, 0.0, 0.9, -0.8)):
+    for name, on, min_hitting, fraction, base, lead in (
+            ("default", True, 0.1, 1.2, -0.55, 0.5), ("ideal_robot", False, 0.0, 0.9, -0.8, 0.0)):
         scenario = load_scenario(name)
         scenario.referee.target_x = -0.2
         planner = ServeDiagram(scenario, "analytical").player.planner
         config = planner.config
         assert config.correction_fallbacks is on and config.plan_fallbacks is on
-        assert config.times.min_hitting == min_hitting
+        assert config.times.min_hitting == min_hitting and config.times.direct_lead == lead
+        assert config.posture_fallback is on
         assert config.torque_fraction == config.correction_torque_fraction == fraction
         assert planner.correction_budget == planner.effort_budget
         assert planner.effort_budget.fraction == fraction
