@@ -23,7 +23,9 @@ comes toward the robot and the hitting stage has not begun, the
 It stops re-planning once the hitting stage has begun (paper section III-A), except for
 corrections: a prediction that moves more than the racket forgives (the spin seen at the
 robot-side bounce, usually after the hitting stage's start) re-plans the rest of the hitting
-stage from the current desired state, until 80 ms before the hit. A re-plan is
+stage from the current desired state, until 80 ms before the hit (with
+``PlannerConfig.posture_fallback``, a correction refused in every stroke is tried again with the
+arm nearest the committed posture: :meth:`StrokePlanner.committed_posture`). A re-plan is
 dropped, keeping the previous one, when the arm solution jumps to another configuration
 (> ``max_branch_change`` on a joint) while the hitting point moved less than
 ``research_distance``, or when the new plan leaves the joint position, velocity or acceleration
