@@ -197,6 +197,18 @@ def snopt_options(settings: dict | None = None) -> SolverOptions:
     return options
 
 
+def _posture(posture) -> tuple[np.ndarray, np.ndarray]:
+    """(q_c, w) of :meth:`HittingIK.solve` as two float arrays of 7, w finite and >= 0;
+    ValueError otherwise."""
+    try:
+        q_c, w = (np.asarray(x, dtype=float).reshape(NUM_JOINTS) for x in posture)
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"posture must be (q_c, w), two arrays of {NUM_JOINTS} numbers") from err
+    if not (np.all(np.isfinite(q_c)) and np.all(np.isfinite(w)) and np.all(w >= 0.0)):
+        raise ValueError("posture's q_c must be finite and its weights w finite and >= 0")
+    return q_c, w
+
+
 def _unit(v, name: str) -> np.ndarray:
     v = np.asarray(v, dtype=float).reshape(3)
     norm = float(np.linalg.norm(v))
@@ -345,6 +357,8 @@ class HittingIK:
         start = time.perf_counter()
         p_hit = np.asarray(p_hit, dtype=float).reshape(3)
         normal = _unit(normal, "normal")
+        if posture is not None:
+            posture = _posture(posture)
         seeds = [np.clip(s, self.lower, self.upper) for s in self.fallback_seeds]
         if q_seed is not None:
             seeds.insert(0, np.clip(np.asarray(q_seed, dtype=float).reshape(NUM_JOINTS),

@@ -148,6 +148,10 @@ def test_a_requests_posture_replaces_the_comfort_posture_in_the_cost(ik):
     assert abs(near.q[0] - plain.q[0]) < abs(comfort.q[0] - plain.q[0])
     # Without a posture the answer is the comfort posture's, to the bit.
     np.testing.assert_array_equal(ik.solve(p2, n2, q_seed=plain.q, posture=None).q, comfort.q)
+    for bad in ((plain.q, np.ones(6)), (plain.q,), (plain.q, -np.ones(7)),
+                (np.full(7, np.nan), np.ones(7))):
+        with pytest.raises(ValueError, match="posture"):
+            ik.solve(p2, n2, posture=bad)
 
 
 def test_snopts_print_level_does_not_change_an_answer(ik):
