@@ -307,8 +307,9 @@ class HittingIK:
         ok = position_error <= POSITION_TOLERANCE and angle_error <= ANGLE_TOLERANCE and inside
         return position_error, angle_error, ok
 
-    def _solve_once(self, p_hit, normal, seed, posture=None) -> np.ndarray:
-        comfort, weights = (self.comfort, self.weights) if posture is None else posture
+    def _solve_once(self, p_hit, normal, seed, posture) -> np.ndarray:
+        """One SNOPT run from ``seed`` minimising the cost of ``posture`` = (q_c, w)."""
+        comfort, weights = posture
         ik = InverseKinematics(self.plant, self.context, with_joint_limits=False)
         q = ik.q()
         ik.AddPositionConstraint(self._frame_c, np.zeros(3), self._world,
@@ -321,7 +322,7 @@ class HittingIK:
         result = self._solver.Solve(prog, seed, self.solver_options)
         return np.asarray(result.GetSolution(q), dtype=float)
 
-    def _multistart(self, p_hit, normal, seeds, posture=None) -> tuple[tuple, int]:
+    def _multistart(self, p_hit, normal, seeds, posture) -> tuple[tuple, int]:
         """Solve from each distinct start in turn until one passes the check; returns
         ((badness, q, position_error, angle_error, ok), attempts) of the success, or of the
         attempt closest to the request (badness = position error + 0.1 m/rad x angle error,
@@ -357,8 +358,7 @@ class HittingIK:
         start = time.perf_counter()
         p_hit = np.asarray(p_hit, dtype=float).reshape(3)
         normal = _unit(normal, "normal")
-        if posture is not None:
-            posture = _posture(posture)
+        posture = (self.comfort, self.weights) if posture is None else _posture(posture)
         seeds = [np.clip(s, self.lower, self.upper) for s in self.fallback_seeds]
         if q_seed is not None:
             seeds.insert(0, np.clip(np.asarray(q_seed, dtype=float).reshape(NUM_JOINTS),
