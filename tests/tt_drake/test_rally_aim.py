@@ -111,6 +111,30 @@ def test_the_stock_robots_reach_leaves_out_a_short_ball_met_falling_through_the_
     assert CompetitiveAim(playable_z=[0.65, 1.15]).playable(point)
 
 
+def test_a_deeper_slow_return_crosses_the_opponents_plane_higher_and_the_box_reaches_up_for_it():
+    # Slow returns (0.8 s from the striker's plane, no spin) aimed ever deeper: the deeper the
+    # bounce, the later in its rise after the bounce the ball reaches the opponent's hitting
+    # plane, so the higher it crosses there.
+    model, band = BallModel(), HittingBand()
+    p_hit = np.array([0.1, PLANES.hitting_y, 0.95])
+    heights = []
+    for depth in (0.9, 1.1, 1.25):
+        goal = (0.0, depth, TABLE.surface_z + BALL.radius)
+        v_out = solve_outgoing_velocity(p_hit, goal, 0.8, model)
+        point = opponent_hitting_point(model, p_hit, v_out, np.zeros(3), PLANES.hitting_y, band)
+        assert point is not None and len(point.bounces) == 1
+        assert point.position[1] == pytest.approx(PLANES.hitting_y)  # met at the plane
+        heights.append(point.position[2])
+        if depth == 1.1:
+            deep = point
+    assert heights[0] < heights[1] < heights[2]
+    # The ball landing 1.1 m past the net crosses above 1.15 m: the stock robot's default box,
+    # topped at 1.25 m, keeps it; a box topped at 1.15 m (the ideal robot's) refuses it.
+    assert 1.15 < deep.position[2] < 1.25
+    assert CompetitiveAim().playable(deep)
+    assert not CompetitiveAim(playable_z=[0.7, 1.15]).playable(deep)
+
+
 def test_against_a_learned_opponent_the_reach_is_the_learned_players():
     c = CompetitiveAim(playable_z=[0.65, 1.15], learned_playable_z=[0.72, 1.1])
     assert c.against(True).playable_z == [0.72, 1.1]
