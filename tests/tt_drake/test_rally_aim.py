@@ -117,17 +117,17 @@ def test_a_deeper_slow_return_crosses_the_opponents_plane_higher_and_the_box_rea
     # plane, so the higher it crosses there.
     model, band = BallModel(), HittingBand()
     p_hit = np.array([0.1, PLANES.hitting_y, 0.95])
-    heights = []
+    points = []
     for depth in (0.9, 1.1, 1.25):
         goal = (0.0, depth, TABLE.surface_z + BALL.radius)
         v_out = solve_outgoing_velocity(p_hit, goal, 0.8, model)
-        point = opponent_hitting_point(model, p_hit, v_out, np.zeros(3), PLANES.hitting_y, band)
+        points.append(opponent_hitting_point(model, p_hit, v_out, np.zeros(3),
+                                             PLANES.hitting_y, band))
+    for point in points:
         assert point is not None and len(point.bounces) == 1
         assert point.position[1] == pytest.approx(PLANES.hitting_y)  # met at the plane
-        heights.append(point.position[2])
-        if depth == 1.1:
-            deep = point
-    assert heights[0] < heights[1] < heights[2]
+    assert points[0].position[2] < points[1].position[2] < points[2].position[2]
+    deep = points[1]
     # The ball landing 1.1 m past the net crosses above 1.15 m: the stock robot's default box,
     # topped at 1.25 m, keeps it; a box topped at 1.15 m (the ideal robot's) refuses it.
     assert 1.15 < deep.position[2] < 1.25
