@@ -26,8 +26,10 @@ Given a hitting point ``p`` and a unit normal ``n`` (both in ``W``)::
                 q_lo + m ≤ q ≤ q_hi - m                 (joint limits shrunk by m = 0.05 rad)
 
 with ``h_i`` the half-range of joint ``i``, so each joint's distance is measured in units of its
-own range. It is solved with Drake's ``InverseKinematics`` and SNOPT (about 2 ms per solve); the
-answer is then re-checked with the plant's forward kinematics, and only a pose within 1e-4 m and
+own range. It is solved with Drake's ``InverseKinematics`` and SNOPT (about 1 ms per solve), or
+with ``solver="sqp"`` by the compiled SQP of :mod:`tt_drake.ik_kernel` (the same program, about
+five times faster; docs/hitting_ik.md, "Solvers"); the answer is then re-checked with the
+plant's forward kinematics (:meth:`HittingIK.check`), and only a pose within 1e-4 m and
 1e-3 rad, inside the shrunk limits, counts as ``success``. The solver's face sign is strict:
 ``y_C`` points *along* ``n``, the forehand rubber.
 
@@ -70,6 +72,7 @@ from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.solvers import SnoptSolver, SolverOptions
 
 from tt_drake import wam_params as wp
+from tt_drake.ik_kernel import solve_hitting_pose
 from tt_drake.systems.arm_dynamics import chain_of
 from tt_drake.systems.wam import RACKET_CENTER_FRAME, make_control_plant
 
@@ -98,8 +101,8 @@ POSITION_TOLERANCE = 1e-4  # m, acceptance of an IK answer (forward-kinematics c
 ANGLE_TOLERANCE = 1e-3  # rad, acceptance of the racket normal
 # Bounds handed to the solver: tighter than the acceptance tolerances so that SNOPT's own
 # feasibility tolerance (~1e-6) cannot push an answer over them.
-_SOLVER_POSITION_BOUND = 1e-5  # m, per axis
-_SOLVER_ANGLE_BOUND = 5e-4  # rad
+SOLVER_POSITION_BOUND = 1e-5  # m, per axis
+SOLVER_ANGLE_BOUND = 5e-4  # rad
 # SNOPT's major-iteration cap per start. Successful solves need far fewer; the cap bounds the time a
 # start spends creeping along an infeasible boundary (in the reachability sweep it cut the worst
 # request from ~240 ms to ~40 ms without losing any of the 431 reachable requests; 50 lost three).
@@ -110,6 +113,9 @@ SNOPT_MAJOR_ITERATIONS = 100
 #: (docs/performance.md, "The teacher").
 SNOPT_OPTIONS = {"Major iterations limit": SNOPT_MAJOR_ITERATIONS, "Major print level": 0}
 DEFAULT_NULL_GAIN = 1.0  # 1/s, k in the null-space term of joint_velocities
+#: The solvers of the position problem: Drake's SNOPT, or the compiled SQP of
+#: :mod:`tt_drake.ik_kernel` (SNOPT from the same start where it does not converge).
+SOLVERS = ("snopt", "sqp")
 # Spare starting postures for the IK after the comfort and AWAITING starts fail: four fixed draws
 # from the middle half of each joint's range (seeded, so every run tries the same ones). SNOPT
 # occasionally stalls from both natural starts at a reachable pose (2 of 440 in the reachability
@@ -225,10 +231,16 @@ class HittingIK:
     deviation counts in units of its own range). ``margin``: rad kept clear of each joint limit.
     ``fallback_seeds``: extra starting postures tried, in order, when the first start fails
     (default: the comfort posture, wam_params.AWAITING, then :data:`SPARE_SEEDS`).
+    ``solver``: ``"snopt"`` (Drake's SNOPT) or ``"sqp"`` (the compiled SQP of
+    :mod:`tt_drake.ik_kernel`, SNOPT from the same start where it does not converge): the same
+    program, each start's answer to its own tolerance (docs/hitting_ik.md, "Solvers").
     """
 
     def __init__(self, comfort=HITTING_COMFORT, weights=None, margin: float = JOINT_MARGIN,
-                 fallback_seeds=None):
+                 fallback_seeds=None, solver: str = "snopt"):
+        if solver not in SOLVERS:
+            raise ValueError(f"solver must be one of {SOLVERS}, not {solver!r}")
+        self.solver = solver
         self.plant = make_control_plant()
         self.context = self.plant.CreateDefaultContext()
         self._frame_c = self.plant.GetFrameByName(RACKET_CENTER_FRAME)
@@ -298,7 +310,10 @@ class HittingIK:
         return float(d @ (weights * d))
 
     # ----------------------------------------------------------------------------- positions
-    def _evaluate(self, q, p_hit, normal) -> tuple[float, float, bool]:
+    def check(self, q, p_hit, normal) -> tuple[float, float, bool]:
+        """(|p_WC(q) - p_hit|, the angle between y_C(q) and the unit ``normal``, whether ``q``
+        is an answer): within POSITION_TOLERANCE and ANGLE_TOLERANCE, inside the shrunk
+        limits (1e-9 rad of slack)."""
         pose = self.racket_pose(q)
         position_error = float(np.linalg.norm(pose.translation() - p_hit))
         cos = float(np.clip(pose.rotation().matrix()[:, 1] @ normal, -1.0, 1.0))
@@ -307,15 +322,24 @@ class HittingIK:
         ok = position_error <= POSITION_TOLERANCE and angle_error <= ANGLE_TOLERANCE and inside
         return position_error, angle_error, ok
 
-    def _solve_once(self, p_hit, normal, seed, posture) -> np.ndarray:
-        """One SNOPT run from ``seed`` minimising the cost of ``posture`` = (q_c, w)."""
+    def solve_from(self, p_hit, normal, seed, posture) -> np.ndarray:
+        """One solver run from ``seed`` minimising the cost of ``posture`` = (q_c, w), its
+        answer not checked (:meth:`check`): the compiled SQP if it is the :attr:`solver` and
+        converges, else SNOPT. ``p_hit`` (3) and the unit ``normal`` as :meth:`solve` takes
+        them."""
         comfort, weights = posture
+        if self.solver == "sqp":
+            q, _, converged, _ = solve_hitting_pose(
+                seed, p_hit, normal, comfort, weights, self.lower, self.upper,
+                SOLVER_POSITION_BOUND, SOLVER_ANGLE_BOUND)
+            if converged:
+                return q
         ik = InverseKinematics(self.plant, self.context, with_joint_limits=False)
         q = ik.q()
         ik.AddPositionConstraint(self._frame_c, np.zeros(3), self._world,
-                                 p_hit - _SOLVER_POSITION_BOUND, p_hit + _SOLVER_POSITION_BOUND)
+                                 p_hit - SOLVER_POSITION_BOUND, p_hit + SOLVER_POSITION_BOUND)
         ik.AddAngleBetweenVectorsConstraint(self._world, normal, self._frame_c,
-                                            np.array([0.0, 1.0, 0.0]), 0.0, _SOLVER_ANGLE_BOUND)
+                                            np.array([0.0, 1.0, 0.0]), 0.0, SOLVER_ANGLE_BOUND)
         prog = ik.get_mutable_prog()
         prog.AddBoundingBoxConstraint(self.lower, self.upper, q)
         prog.AddQuadraticErrorCost(np.diag(weights), comfort, q)
@@ -333,8 +357,8 @@ class HittingIK:
             if any(np.array_equal(seed, t) for t in tried):
                 continue
             tried.append(seed)
-            q = self._solve_once(p_hit, normal, seed, posture)
-            position_error, angle_error, ok = self._evaluate(q, p_hit, normal)
+            q = self.solve_from(p_hit, normal, seed, posture)
+            position_error, angle_error, ok = self.check(q, p_hit, normal)
             badness = position_error + 0.1 * angle_error
             if best is None or ok or badness < best[0]:
                 best = (badness, q, position_error, angle_error, ok)
@@ -366,7 +390,7 @@ class HittingIK:
         if not self.may_reach(p_hit, normal):
             # No posture meets the request: no solver run; report the first start as a failure.
             seeds = seeds[:1]
-            best = (0.0, seeds[0], *self._evaluate(seeds[0], p_hit, normal))
+            best = (0.0, seeds[0], *self.check(seeds[0], p_hit, normal))
             attempts = 0
         else:
             best, attempts = self._multistart(p_hit, normal, seeds, posture)
