@@ -124,7 +124,8 @@ def teacher_planner_config(scenario: Scenario) -> PlannerConfig:
                          times=StageTimes(min_hitting=teacher.min_hitting,
                                           direct_lead=teacher.direct_lead),
                          awaiting=(teacher.awaiting_base, *AWAITING[1:]),
-                         posture_fallback=teacher.posture_fallback)
+                         posture_fallback=teacher.posture_fallback,
+                         ik_solver=teacher.ik_solver)
 
 
 def add_analytical_player(builder: DiagramBuilder, world: World, controller,

@@ -30,7 +30,7 @@ from tt_drake.stages import StageTimes
 from tt_drake.systems.aerodynamics import AerodynamicsConfig
 from tt_drake.systems.ball_launcher import LauncherConfig
 from tt_drake.systems.ball_oracle import PERCEPTIONS
-from tt_drake.systems.hitting_ik import JOINT_MARGIN
+from tt_drake.systems.hitting_ik import JOINT_MARGIN, SOLVERS
 from tt_drake.systems.world import ModelFileError, WorldConfig, is_explicit_path, model_path
 from tt_drake.wam_params import (
     DESIGN_VOLTAGE,
@@ -165,7 +165,10 @@ class TeacherConfig:
     with the arm nearest the committed stroke's posture in units of the joints' speed limits,
     not the comfort posture ("Corrections"). ``direct_lead`` (s): a stroke with no time for a
     swing-back waits at rest no later than this long before the hit; 0: until its hitting
-    stage's start ("Stages")."""
+    stage's start ("Stages"). ``ik_solver``: the solver of the arm's position problem,
+    ``snopt`` (Drake's SNOPT) or ``sqp`` (the compiled SQP, about five times faster; the same
+    program, each answer to its solver's tolerance, so strokes differ by that:
+    docs/hitting_ik.md, "Solvers")."""
 
     correction_fallbacks: bool = True
     plan_fallbacks: bool = True
@@ -175,6 +178,7 @@ class TeacherConfig:
     awaiting_base: float = -0.55
     posture_fallback: bool = True
     direct_lead: float = 0.5
+    ik_solver: str = "snopt"
 
 
 @dataclass
@@ -465,6 +469,7 @@ FIELD_RULES: dict[str, Check] = {
     "after_crossing": number(above=0.0, maximum=60.0),
     "teacher.min_hitting": number(minimum=0.0, maximum=StageTimes().hitting),
     "teacher.direct_lead": number(minimum=0.0, maximum=2.0),
+    "teacher.ik_solver": one_of(*SOLVERS),
     "teacher.torque_fraction": number(above=0.0, maximum=2.0),
     "teacher.correction_torque_fraction": number(above=0.0, maximum=2.0),
     "teacher.awaiting_base": number(minimum=JOINT_LOWER[0] + JOINT_MARGIN,

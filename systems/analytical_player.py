@@ -154,6 +154,9 @@ class PlannerConfig:
     # units of the joints' speed limits (:meth:`StrokePlanner.committed_posture`) instead of the
     # comfort posture: the slow base joint then turns least when the bounce moves the hit.
     posture_fallback: bool = False
+    # The solver of the arm's position problem (hitting_ik.SOLVERS): Drake's SNOPT or the compiled
+    # SQP (docs/hitting_ik.md, "Solvers"); used when the planner builds its own arm.
+    ik_solver: str = "snopt"
     # The drives' supply voltage (V, tt_drake.drives): a plan must also stay within
     # ``supply_fraction`` of the supply at every joint speed, and each joint within that
     # share of its no-load speed; 0: ideal drives.
@@ -249,7 +252,7 @@ class StrokePlanner:
         self.config = config or PlannerConfig()
         self.drive = drive_envelope(self.config.drive_voltage)
         if arm is None:
-            arm = HittingIK()
+            arm = HittingIK(solver=self.config.ik_solver)
         self.arm = arm
         self.model = model or planner_ball_model()
         self.q_await = np.asarray(self.config.awaiting, dtype=float)

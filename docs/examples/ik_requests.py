@@ -16,12 +16,10 @@ from every start.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import time
 
-from tt_drake.diagrams.commands.options import add_scenario_option
+from tt_drake.diagrams.commands.options import add_scenario_options, scenario_from_options
 from tt_drake.diagrams.episodes import ServeDiagram, episode_seed
-from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.systems.hitting_ik import HittingIK
 
 
@@ -60,17 +58,9 @@ def main(argv=None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--serves", type=int, default=30)
     ap.add_argument("--seed", type=int, default=3)
-    ap.add_argument("--distribution", default=None, help="the launcher's serves (e.g. spin)")
-    ap.add_argument("--spin-max", type=float, default=None, help="rad/s, with spin serves")
-    add_scenario_option(ap)
+    add_scenario_options(ap)
     args = ap.parse_args(argv)
-    scenario = load_scenario(args.scenario)
-    launcher = scenario.launcher
-    if args.distribution is not None:
-        launcher = dataclasses.replace(launcher, distribution=args.distribution)
-    if args.spin_max is not None:
-        launcher = dataclasses.replace(launcher, spin_max=args.spin_max)
-    scenario = dataclasses.replace(scenario, launcher=launcher)
+    scenario = scenario_from_options(args)
     c = count_requests(scenario, args.serves, args.seed)
     n = args.serves
     failed = c["refused_by_wrist_test"] + c["failed_in_solver"]

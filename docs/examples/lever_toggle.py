@@ -46,13 +46,16 @@ after the other do not. Levers:
 - ``snopt-quiet``: the inverse kinematics' SNOPT at major print level 0
   (``hitting_ik.SNOPT_OPTIONS``) against its default level (the iteration cap alone), for the
   teacher's IK and an analytical hitting configuration's (a CrKR configuration solves none).
+- ``ik-sqp`` (analytical): the inverse kinematics solved by the compiled SQP
+  (``HittingIK(solver="sqp")``, ``teacher: {ik_solver: sqp}``) against SNOPT (the default).
 
 ``--perception oracle --record`` plays the serves as the paper protocol's teacher stage does
 (``tt-drake collect --perception oracle``).
 
 It also counts the serves whose outcome and episode duration are equal both ways (``did-nothing``,
 ``setpoint-table``, ``hold-table``, ``momp-did-nothing``, ``crossing-memo``, ``quintic-kernel``,
-``wrist-test`` and ``snopt-quiet`` change no number;
+``wrist-test`` and ``snopt-quiet`` change no number; ``ik-sqp`` changes strokes by the
+solvers' tolerances, so the outcome check for it is ``compare_serves.py`` on 100 serves;
 ``segments`` may move the integrator's steps, and the outcome check for it is
 ``compare_serves.py`` on 100 serves).
 """
@@ -200,8 +203,12 @@ def toggles(diagram: ServeDiagram) -> dict:
         for arm, options in zip(arms, quiet, strict=True):
             arm.solver_options = options if on else loud
 
+    def ik_sqp(on: bool) -> None:
+        for arm in arms:
+            arm.solver = "sqp" if on else "snopt"
+
     return {"quintic-kernel": quintic_kernel, "wrist-test": wrist_test_lever,
-            "snopt-quiet": snopt_quiet,
+            "snopt-quiet": snopt_quiet, "ik-sqp": ik_sqp,
             "prediction-step": prediction_step,
             "prediction-cutoff": prediction_cutoff, "close-aim": close_aim,
             "teacher-all": teacher_all,
@@ -217,7 +224,7 @@ def main() -> None:
                                       "guard",
                                       "prediction-step", "prediction-cutoff", "close-aim",
                                       "teacher-all", "quintic-kernel", "wrist-test",
-                                      "snopt-quiet"))
+                                      "snopt-quiet", "ik-sqp"))
     ap.add_argument("--player", default="momp")
     ap.add_argument("--serves", type=int, default=12)
     ap.add_argument("--seed", type=int, default=3)

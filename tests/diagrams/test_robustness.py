@@ -32,6 +32,7 @@ INVALID_FIELDS = {
     "controller: {kp: [900, 900, 900, .nan, 900, 900, 900]}\n": "controller.kp [3] must be finite",
     "controller: {kd: [60, 60, 60, 60, 60, 60, -1]}\n": "controller.kd [6] must be >= 0",
     "after_crossing: .inf\n": "after_crossing must be finite",
+    "teacher: {ik_solver: ipopt}\n": "teacher.ik_solver 'ipopt' is not one of snopt, sqp",
 }
 
 

@@ -142,6 +142,19 @@ def test_the_ik_request_count_finds_the_wrist_test_behind_every_failure_without_
     assert c["refused_by_wrist_test"] == c["outside_the_wrists_reach"] > 0
 
 
+def test_the_ik_solver_comparison_finds_every_converged_sqp_answer_within_the_tolerances():
+    """docs/examples/ik_solvers.py: on two serves of seed 7 the SQP converges from every
+    start the teacher's SNOPT runs had, and a converged answer meets the solver's bounds, which
+    lie inside the IK's acceptance: each one passes the forward-kinematics check."""
+    spec = importlib.util.spec_from_file_location("example_ik_solvers",
+                                                  EXAMPLES / "ik_solvers.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    r = module.main(["--serves", "2", "--seed", "7"])
+    assert r["runs"] > 0 and r["sqp_converged"] == r["runs"]
+    assert r["passed_check"]["sqp"] == r["runs"]
+
+
 def test_the_base_angle_the_hitting_postures_ask_for_grows_toward_the_forehand():
     """docs/examples/base_angles.py: across the hitting region the IK's base angle rises
     strictly with the hitting point's x (+x is the forehand), about 1.5 rad from 0.3 m to the
