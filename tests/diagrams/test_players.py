@@ -58,7 +58,8 @@ def test_the_scenarios_teacher_settings_reach_the_analytical_player():
     scenario's teacher plays no refused plan's fallbacks, keeps 0.9 of the effort limits, waits
     at wam_params.AWAITING, for a direct hit until its hitting stage's start, and corrects only
     nearest the comfort posture) is the teacher's planner setting in the serve diagram, which
-    keeps aiming at the scenario's referee target."""
+    keeps aiming at the scenario's referee target; its arm solves with SNOPT unless
+    ``ik_solver`` names the compiled SQP."""
     from tt_drake.diagrams.episodes import ServeDiagram
 
     for name, on, min_hitting, fraction, base, lead in (
@@ -75,12 +76,15 @@ def test_the_scenarios_teacher_settings_reach_the_analytical_player():
         assert planner.effort_budget.fraction == fraction
         assert (config.target_x, config.target_y) == (-0.2, scenario.referee.target_y)
         np.testing.assert_array_equal(planner.q_await, (base, *AWAITING[1:]))
+        assert planner.arm.solver == "snopt"
     scenario = load_scenario("default")
     scenario.teacher.torque_fraction = 0.9
     scenario.teacher.correction_torque_fraction = 1.0
+    scenario.teacher.ik_solver = "sqp"
     planner = ServeDiagram(scenario, "analytical").player.planner
     assert planner.correction_budget.fraction == 1.0 and planner.effort_budget.fraction == 0.9
     assert planner.correction_budget.drive == planner.effort_budget.drive is not None
+    assert planner.arm.solver == "sqp"
 
 
 def test_every_arm_starts_at_rest_where_its_player_waits_and_stays_there():
