@@ -166,7 +166,7 @@ class TeacherConfig:
     not the comfort posture ("Corrections"). ``direct_lead`` (s): a stroke with no time for a
     swing-back waits at rest no later than this long before the hit; 0: until its hitting
     stage's start ("Stages"). ``ik_solver``: the solver of the arm's position problem,
-    ``snopt`` (Drake's SNOPT) or ``sqp`` (the compiled SQP, about five times faster; the same
+    ``snopt`` (Drake's SNOPT) or ``sqp`` (the compiled SQP, about four times faster; the same
     program, each answer to its solver's tolerance, so strokes differ by that:
     docs/hitting_ik.md, "Solvers")."""
 

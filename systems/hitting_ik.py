@@ -28,7 +28,7 @@ Given a hitting point ``p`` and a unit normal ``n`` (both in ``W``)::
 with ``h_i`` the half-range of joint ``i``, so each joint's distance is measured in units of its
 own range. It is solved with Drake's ``InverseKinematics`` and SNOPT (about 1 ms per solve), or
 with ``solver="sqp"`` by the compiled SQP of :mod:`tt_drake.ik_kernel` (the same program, about
-five times faster; docs/hitting_ik.md, "Solvers"); the answer is then re-checked with the
+four times faster; docs/hitting_ik.md, "Solvers"); the answer is then re-checked with the
 plant's forward kinematics (:meth:`HittingIK.check`), and only a pose within 1e-4 m and
 1e-3 rad, inside the shrunk limits, counts as ``success``. The solver's face sign is strict:
 ``y_C`` points *along* ``n``, the forehand rubber.
