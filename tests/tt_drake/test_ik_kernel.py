@@ -135,6 +135,31 @@ def test_the_sqp_and_snopt_answer_a_request_alike(ik):
     assert max(costs) < 1e-6
 
 
+# A request of the teacher on a spinning serve (`spin --spin-max 150`, seed 5002) whose start
+# walks the SQP into dependent active rows: a low forehand point (0.67 m high) with the face
+# turned 43 deg up and toward the backhand (hitting point, normal, start; the cost is the comfort
+# posture's).
+SINGULAR_REQUEST = (
+    (0.6384832571464346, -1.7571090680128638, 0.6656416135705597),
+    (-0.19872406833859005, 0.709010394823828, 0.6766188030898336),
+    (0.4087136767081662, 0.694972743766353, 1.10066641217637, 0.5656569629813819,
+     -1.8357271043666223, 0.324213870969344, -1.0134529451583452))
+
+
+def test_dependent_active_rows_are_no_answer_and_snopt_solves_that_start(ik):
+    """The QP's active rows can turn dependent near a singular arm (N G^-1 N^T singular): the
+    SQP then reports no answer instead of raising, and the SQP arm's run from that start is
+    SNOPT's, to the bit."""
+    p_hit, normal, start = (np.array(v) for v in SINGULAR_REQUEST)
+    lower, upper = np.array(wp.JOINT_LOWER) + 0.05, np.array(wp.JOINT_UPPER) - 0.05
+    _, _, converged, iterations = k.solve_hitting_pose(
+        start, p_hit, normal, COMFORT, WEIGHTS, lower, upper, BOX, ANGLE)
+    assert not converged and iterations < k.MAX_ITERATIONS
+    posture = (COMFORT, WEIGHTS)
+    np.testing.assert_array_equal(HittingIK(solver="sqp").solve_from(p_hit, normal, start, posture),
+                                  ik.solve_from(p_hit, normal, start, posture))
+
+
 def test_a_solver_it_does_not_have_is_refused():
     with pytest.raises(ValueError, match="solver must be one of"):
         HittingIK(solver="ipopt")
