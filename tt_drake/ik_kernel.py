@@ -237,6 +237,7 @@ def sqp(q0, p_hit, n, qc, w, lower, upper, box, cos_min, dh_a, dh_alpha, dh_d, x
     for j in range(7):
         C[7 + j, j] = 1.0
         C[14 + j, j] = -1.0
+    cost_hessian = np.diag(2.0 * w)  # ∇²f = 2W
     floor = EIGENVALUE_FLOOR * 2.0 * np.max(w)
     for it in range(max_iterations):
         p, y = chain(q, dh_a, dh_alpha, dh_d, x_w0, center, o, z)
@@ -255,7 +256,7 @@ def sqp(q0, p_hit, n, qc, w, lower, upper, box, cos_min, dh_a, dh_alpha, dh_d, x
             c[14 + j] = upper[j] - q[j]
         # H = 2W - Σ λ_k ∇²c_k: the position rows' curvature enters with λ_lo - λ_hi.
         curvature(o, z, p, y, lam[0:3] - lam[3:6], n, lam[6], second)
-        H = np.diag(2.0 * w) - second
+        H = cost_hessian - second
         values, vectors = np.linalg.eigh(H)
         if values[0] < floor:
             for k in range(7):
@@ -278,9 +279,9 @@ def solve_hitting_pose(q0, p_hit, normal, comfort, weights, lower, upper, positi
     ``position_bound`` (m, per axis) of ``p_hit`` and the normal within ``angle_bound`` (rad) of
     the unit ``normal``, nearest ``comfort`` in the weights ``weights``, inside
     [``lower``, ``upper``]. Returns (q, multipliers, converged, iterations)."""
-    def vector(v):
-        return np.ascontiguousarray(v, dtype=float).reshape(-1)
-
-    return sqp(vector(q0), vector(p_hit), vector(normal), vector(comfort), vector(weights),
-               vector(lower), vector(upper), float(position_bound), math.cos(angle_bound),
-               DH_A, DH_ALPHA, DH_D, SHOULDER_POSE, CENTER_OFFSET, int(max_iterations))
+    q0, p_hit, normal, comfort, weights, lower, upper = (
+        np.ascontiguousarray(v, dtype=float).reshape(-1)
+        for v in (q0, p_hit, normal, comfort, weights, lower, upper))
+    return sqp(q0, p_hit, normal, comfort, weights, lower, upper, float(position_bound),
+               math.cos(angle_bound), DH_A, DH_ALPHA, DH_D, SHOULDER_POSE, CENTER_OFFSET,
+               int(max_iterations))
