@@ -55,6 +55,7 @@ from tt_drake.systems.ball_launcher import BallLauncher
 from tt_drake.systems.joint_stops import make_joint_stops
 from tt_drake.systems.rally_referee import RallyReferee
 from tt_drake.systems.referee import RacketCentre, Referee
+from tt_drake.systems.table_clearance import TableClearance
 from tt_drake.systems.wam import (
     RACKET_CENTER_FRAME,
     add_drive_correction,
@@ -268,9 +269,11 @@ def _referee(scenario, world: World, end_when_decided: bool):
     plant, kwargs = world.plant, {}
     if world.robot is not None:
         frame = plant.GetFrameByName(RACKET_CENTER_FRAME, world.robot)
+        table = table_top_geometries(world)
         kwargs = dict(racket_centre=RacketCentre(plant, world.robot, frame),
                       robot_body_indices=_robot_bodies(plant, world.robot),
-                      table_geometry_ids=_table_top(world))
+                      table_geometry_ids=table,
+                      table_clearance=_table_clearance(world, world.robot, table))
     return Referee(scenario.referee, scenario.referee_rate, stop_when_decided=end_when_decided,
                    **kwargs)
 
@@ -282,9 +285,11 @@ def _rally_referee(scenario, world: World):
     robots = (world.robot, world.robot_b)
     centres = tuple(RacketCentre(plant, r, plant.GetFrameByName(RACKET_CENTER_FRAME, r))
                     for r in robots)
+    table = table_top_geometries(world)
     return RallyReferee(scenario.rally, scenario.referee, scenario.referee_rate, centres,
                         robot_body_indices=tuple(_robot_bodies(plant, r) for r in robots),
-                        table_geometry_ids=_table_top(world))
+                        table_geometry_ids=table,
+                        table_clearances=tuple(_table_clearance(world, r, table) for r in robots))
 
 
 def _robot_bodies(plant, robot) -> list:
@@ -292,7 +297,13 @@ def _robot_bodies(plant, robot) -> list:
     return [plant.get_body(i).index() for i in plant.GetBodyIndices(robot)]
 
 
-def _table_top(world: World) -> list:
+def _table_clearance(world: World, robot, table: list) -> TableClearance | None:
+    """The bound that spares the referee the contact query while ``robot`` cannot reach the
+    table top (None where it cannot be built for the world's model)."""
+    return TableClearance.of(world.plant, robot, table, world.scene_graph.model_inspector())
+
+
+def table_top_geometries(world: World) -> list:
     """The table top's collision geometries: those named ``table_top`` on the table model's
     bodies (a static model's links are bodies of their own, welded to the world)."""
     plant, inspector = world.plant, world.scene_graph.model_inspector()

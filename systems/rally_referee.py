@@ -99,12 +99,15 @@ class RallyReferee(LeafSystem):
     tests: any unexplained velocity change away from table, net and floor is then the racket).
     ``robot_body_indices``: for each side, its bodies (arm links and racket);
     ``table_geometry_ids``: the table top's collision geometries (without them, or without the
-    ``contact_results`` input, no touch of the table is seen)."""
+    ``contact_results`` input, no touch of the table is seen). ``table_clearances``: for each
+    side, its :class:`tt_drake.systems.table_clearance.TableClearance` or None; the contact
+    results are read only at the samples where some side's arm may reach the table top."""
 
     def __init__(self, config: RallyConfig | None = None,
                  referee: RefereeConfig | None = None, rate: float = 250.0,
                  racket_centres=(None, None), stop_below: float = 0.1,
-                 robot_body_indices=((), ()), table_geometry_ids=()):
+                 robot_body_indices=((), ()), table_geometry_ids=(),
+                 table_clearances=(None, None)):
         super().__init__()
         self.config = config or RallyConfig()
         self.detector = ContactDetector(referee or RefereeConfig())
@@ -112,6 +115,7 @@ class RallyReferee(LeafSystem):
         self._stop_below = stop_below
         self._robot_bodies = tuple(set(bodies) for bodies in robot_body_indices)
         self._table_geometries = set(table_geometry_ids)
+        self._clearances = tuple(table_clearances)
         self._ball = self.DeclareVectorInputPort("ball_state", 13)
         self._arms = (self.DeclareVectorInputPort("robot_a_state", 14),
                       self.DeclareVectorInputPort("robot_b_state", 14))
@@ -123,6 +127,11 @@ class RallyReferee(LeafSystem):
         self.DeclareAbstractOutputPort("rally", lambda: AbstractValue.Make(RallyRecord()),
                                        self._calc_rally)
 
+    @property
+    def table_clearances(self) -> tuple:
+        """Each side's :class:`tt_drake.systems.table_clearance.TableClearance`, or None."""
+        return self._clearances
+
     def _arm_q(self, context):
         return tuple(tuple(port.Eval(context)[:7]) if port.HasValue(context) else None
                      for port in self._arms)
@@ -132,9 +141,15 @@ class RallyReferee(LeafSystem):
         racket = None if centre is None or q[side] is None else _SideRacket(q[side], centre, side)
         return (float(t), to_side(side, *p), to_side(side, *v), to_side(side, *w), racket)
 
-    def _table_toucher(self, context) -> int | None:
-        """The side whose robot touches the table now, or None."""
-        if not self._table_geometries or not self._contacts.HasValue(context):
+    def _table_toucher(self, context, q) -> int | None:
+        """The side whose robot touches the table now, or None (``q``: the sides' joint
+        angles, :meth:`_arm_q`)."""
+        if not self._table_geometries:
+            return None
+        if all(c is not None and x is not None and not c.may_touch(x)
+               for c, x in zip(self._clearances, q, strict=True)):
+            return None
+        if not self._contacts.HasValue(context):
             return None
         return table_toucher(contact_pairs(self._contacts.Eval(context)), self._robot_bodies,
                              self._table_geometries)
@@ -150,7 +165,7 @@ class RallyReferee(LeafSystem):
         q = self._arm_q(context)
         r = record.receiver
         cur = self._side_sample(t, s[4:7], s[10:13], s[7:10], q, r)
-        toucher = self._table_toucher(context)
+        toucher = self._table_toucher(context, q)
         if toucher is not None:
             record = RallyRecord(record.exchanges, table_fault(toucher, r, t, old.incoming),
                                  False, True, r)

@@ -8,7 +8,9 @@ Inputs:
   samples that the contact detector needs it for (a velocity jump away from the table, the net and
   the floor), not at every sample (docs/performance.md);
 - ``contact_results``: the plant's contact results, to see robot-table contact (optional;
-  which contact counts: :func:`tt_drake.referee_rules.table_toucher`).
+  which contact counts: :func:`tt_drake.referee_rules.table_toucher`). With a
+  ``table_clearance`` (:class:`tt_drake.systems.table_clearance.TableClearance`) they are read
+  only at the samples where the arm's joint angles leave it within reach of the table top.
 
 A periodic unrestricted update at ``rate`` Hz (default 250 Hz) samples them; its abstract state
 holds the last sample, the contact events so far and whether the robot touched the table. Output
@@ -43,6 +45,7 @@ from tt_drake.referee_rules import (
     table_toucher,
 )
 from tt_drake.systems.immutable import Immutable
+from tt_drake.systems.table_clearance import TableClearance
 
 
 class _RefereeState(Immutable):
@@ -114,13 +117,14 @@ class Referee(LeafSystem):
     def __init__(self, config: RefereeConfig | None = None, rate: float = 250.0,
                  racket_centre: RacketCentre | None = None,
                  robot_body_indices=(), table_geometry_ids=(), stop_below: float = 0.1,
-                 stop_when_decided: bool = False):
+                 stop_when_decided: bool = False, table_clearance: TableClearance | None = None):
         super().__init__()
         self.config = config or RefereeConfig()
         self.detector = ContactDetector(self.config)
         self._racket_centre = racket_centre
         self._robot_bodies = set(robot_body_indices)
         self._table_geometries = set(table_geometry_ids)
+        self._clearance = table_clearance if racket_centre is not None else None
         self._stop_below = stop_below
         self._stop_when_decided = stop_when_decided
         # The ports, kept: each 250 Hz sample reads them without looking them up (docs/
@@ -139,14 +143,29 @@ class Referee(LeafSystem):
             "outcome", lambda: AbstractValue.Make(Outcome("missed", False, False, False)),
             self._calc_outcome)
 
-    def _racket_center(self, context):
+    @property
+    def table_clearance(self) -> TableClearance | None:
+        """The bound that spares the contact query while the arm cannot reach the table, or
+        None (the contacts are read at every sample); settable (None turns it off)."""
+        return self._clearance
+
+    @table_clearance.setter
+    def table_clearance(self, clearance: TableClearance | None) -> None:
+        self._clearance = clearance if self._racket_centre is not None else None
+
+    def _joint_positions(self, context):
+        """The arm's joint angles (a numpy array), or None without a racket centre or a
+        ``robot_state`` input."""
         if self._racket_centre is None or not self._robot.HasValue(context):
             return None
-        x = self._robot.Eval(context)
-        return RacketAt(tuple(x[:self._racket_centre.num_positions].tolist()), self._racket_centre)
+        return self._robot.Eval(context)[:self._racket_centre.num_positions]
 
-    def _robot_touches_table(self, context) -> bool:
-        if not self._table_geometries or not self._contacts.HasValue(context):
+    def _robot_touches_table(self, context, q) -> bool:
+        if not self._table_geometries:
+            return False
+        if self._clearance is not None and q is not None and not self._clearance.may_touch(q):
+            return False
+        if not self._contacts.HasValue(context):
             return False
         pairs = contact_pairs(self._contacts.Eval(context))
         return table_toucher(pairs, (self._robot_bodies,), self._table_geometries) is not None
@@ -155,8 +174,10 @@ class Referee(LeafSystem):
         old = context.get_abstract_state(self._state_index).get_value()
         # ContactDetector.sample's tuple of plain floats, made at once (tolist) at 250 Hz.
         s = self._ball.Eval(context).tolist()
+        q = self._joint_positions(context)
+        racket = None if q is None else RacketAt(tuple(q.tolist()), self._racket_centre)
         cur = (float(context.get_time()), (s[4], s[5], s[6]), (s[10], s[11], s[12]),
-               (s[7], s[8], s[9]), self._racket_center(context))
+               (s[7], s[8], s[9]), racket)
         events = old.events
         decided = False
         if old.sample is not None:
@@ -164,7 +185,7 @@ class Referee(LeafSystem):
             if event is not None:
                 decided = self._stop_when_decided and decides_return(events, event)
                 events = (*events, event)
-        touched = old.touched or self._robot_touches_table(context)
+        touched = old.touched or self._robot_touches_table(context, q)
         if decided:
             state.get_mutable_abstract_state(self._state_index).set_value(
                 _RefereeState(cur, events, touched))

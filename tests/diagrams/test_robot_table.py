@@ -26,7 +26,6 @@ from tt_drake.diagrams.scenario import load_scenario
 from tt_drake.rally_rules import Exchange, RallyFault
 from tt_drake.referee_rules import ROBOT_TABLE
 from tt_drake.stages import Quintic
-from tt_drake.systems.world import model_path
 from tt_drake.wam_params import AWAITING
 
 Q_AWAIT = np.asarray(AWAITING, dtype=float)
@@ -69,17 +68,6 @@ def registered():
     unregister_player("table_toucher")
 
 
-@pytest.fixture(scope="module")
-def long_table(tmp_path_factory):
-    """The shipped table with its top's collision box 3.40 m long instead of 2.74 m."""
-    sdf = model_path("table_world.sdf").read_text(encoding="utf-8")
-    old = "<size>1.525 2.74 0.05</size>"
-    assert sdf.count(old) == 1  # the table top's collision box
-    path = tmp_path_factory.mktemp("table") / "long_table.sdf"
-    path.write_text(sdf.replace(old, "<size>1.525 3.40 0.05</size>"), encoding="utf-8")
-    return str(path)
-
-
 def _scenario(table: str):
     scenario = load_scenario()
     scenario.world.models.table = table
@@ -90,7 +78,10 @@ def _scenario(table: str):
 def test_a_robot_touching_the_table_loses_the_rally(long_table, side):
     players = ["idle", "idle"]
     players[side] = "table_toucher"
-    result = RallyDiagram(rally_scenario(_scenario(long_table)), tuple(players)).run(3)
+    diagram = RallyDiagram(rally_scenario(_scenario(long_table)), tuple(players))
+    # The referee reads the contacts only where the arms' bound lets them reach the table.
+    assert all(c is not None for c in diagram.station.referee.table_clearances)
+    result = diagram.run(3)
     assert result.exchanges == [] and not result.capped
     assert (result.fault.player, result.fault.kind) == (side, ROBOT_TABLE)
     # Ended at the touch, near the end of the reach, long before the idle receiver's miss.
@@ -104,7 +95,9 @@ def test_a_robot_touching_the_table_loses_the_rally(long_table, side):
 
 
 def test_the_same_touch_is_the_serve_referees_robot_table(long_table):
-    result = ServeDiagram(_scenario(long_table), "table_toucher").run(3)
+    diagram = ServeDiagram(_scenario(long_table), "table_toucher")
+    assert diagram.station.referee.table_clearance is not None
+    result = diagram.run(3)
     assert ROBOT_TABLE in result.outcome.faults and result.outcome.reward <= 0.1
 
 
