@@ -223,3 +223,21 @@ def test_the_joint_stops_cost_example_compares_stations_that_agree_inside_the_li
     inertia = awaiting_inertia(plant, robot)[wrist]
     k = stop_stiffness([inertia], JointStopsConfig().natural_frequency)[0]
     assert 0.3 * k * 0.01 / inertia < drop < 3.0 * k * 0.01 / inertia
+
+
+def test_the_setpoint_rows_example_holds_the_python_outputs_values_to_the_bit():
+    """docs/examples/setpoint_rows_cost.py: the rows written at each planning tick and picked by
+    the C++ selector give the hold the row of every servo tick, as the Python output does: the
+    held values integrate to the same state to the bit, and to the sum of the rows times the
+    servo period."""
+    spec = importlib.util.spec_from_file_location("example_setpoint_rows_cost",
+                                                  EXAMPLES / "setpoint_rows_cost.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    _, python = module.run("python", 0.2)
+    _, state = module.run("state", 0.2)
+    assert np.array_equal(python, state)
+    # The integral of the held rows: row k held over [2k ms, 2k + 2 ms) from its tick on.
+    ticks = int(round(0.2 / module.SERVO_PERIOD))
+    expected = module.SERVO_PERIOD * sum(module.row(k) for k in range(ticks))
+    np.testing.assert_allclose(python, expected, rtol=0, atol=1e-12)
