@@ -48,15 +48,18 @@ after the other do not. Levers:
   teacher's IK and an analytical hitting configuration's (a CrKR configuration solves none).
 - ``ik-sqp`` (analytical): the inverse kinematics solved by the compiled SQP
   (``HittingIK(solver="sqp")``, ``teacher: {ik_solver: sqp}``) against SNOPT (the default).
+- ``table-clearance``: the referee reads the plant's contact results only where the arm's
+  joint angles let it reach the table top (``Referee.table_clearance``,
+  ``systems/table_clearance.py``) against at every sample.
 
 ``--perception oracle --record`` plays the serves as the paper protocol's teacher stage does
 (``tt-drake collect --perception oracle``).
 
 It also counts the serves whose outcome and episode duration are equal both ways (``did-nothing``,
 ``setpoint-table``, ``hold-table``, ``momp-did-nothing``, ``crossing-memo``, ``quintic-kernel``,
-``wrist-test`` and ``snopt-quiet`` change no number; ``ik-sqp`` changes strokes by the
-solvers' tolerances, so the outcome check for it is ``compare_serves.py`` on 100 serves;
-``segments`` may move the integrator's steps, and the outcome check for it is
+``wrist-test``, ``snopt-quiet`` and ``table-clearance`` change no number; ``ik-sqp`` changes
+strokes by the solvers' tolerances, so the outcome check for it is ``compare_serves.py`` on 100
+serves; ``segments`` may move the integrator's steps, and the outcome check for it is
 ``compare_serves.py`` on 100 serves).
 """
 
@@ -207,8 +210,14 @@ def toggles(diagram: ServeDiagram) -> dict:
         for arm in arms:
             arm.solver = "sqp" if on else "snopt"
 
+    referee = diagram.station.referee
+    clearance = referee.table_clearance
+
+    def table_clearance(on: bool) -> None:
+        referee.table_clearance = clearance if on else None
+
     return {"quintic-kernel": quintic_kernel, "wrist-test": wrist_test_lever,
-            "snopt-quiet": snopt_quiet, "ik-sqp": ik_sqp,
+            "snopt-quiet": snopt_quiet, "ik-sqp": ik_sqp, "table-clearance": table_clearance,
             "prediction-step": prediction_step,
             "prediction-cutoff": prediction_cutoff, "close-aim": close_aim,
             "teacher-all": teacher_all,
@@ -224,7 +233,7 @@ def main() -> None:
                                       "guard",
                                       "prediction-step", "prediction-cutoff", "close-aim",
                                       "teacher-all", "quintic-kernel", "wrist-test",
-                                      "snopt-quiet", "ik-sqp"))
+                                      "snopt-quiet", "ik-sqp", "table-clearance"))
     ap.add_argument("--player", default="momp")
     ap.add_argument("--serves", type=int, default=12)
     ap.add_argument("--seed", type=int, default=3)
