@@ -12,7 +12,6 @@ worth of work, and BLAS threads of several workers oversubscribe the cores (docs
 
 import contextlib
 import itertools
-import multiprocessing
 import os
 from collections.abc import Callable, Iterable, Iterator
 
@@ -20,7 +19,7 @@ from tt_drake.blas import one_blas_thread
 from tt_drake.diagrams.episodes import EpisodeResult, ServeDiagram
 from tt_drake.diagrams.ray_executor import ray_session, run_ray
 from tt_drake.diagrams.scenario import Scenario
-from tt_drake.diagrams.workers import ExecutorError, run_one
+from tt_drake.diagrams.workers import ExecutorError, fork_context, run_one
 
 _WORKER: dict = {}
 
@@ -63,8 +62,8 @@ def run_episodes(scenario: Scenario, player: str, seeds: Iterable[int], workers:
         for seed, w in zip(itertools.chain(head, seeds), per_seed, strict=False):
             yield run_one(diagram, seed, gamma, w)
         return
-    context = multiprocessing.get_context("fork")
-    pool = context.Pool(len(head), initializer=_init, initargs=(scenario, player, make_diagram))
+    pool = fork_context().Pool(len(head), initializer=_init,
+                               initargs=(scenario, player, make_diagram))
     try:
         tasks = ((seed, gamma, w) for seed, w in
                  zip(itertools.chain(head, seeds), per_seed, strict=False))

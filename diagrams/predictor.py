@@ -28,7 +28,6 @@ import contextlib
 import hashlib
 import json
 import math
-import multiprocessing as mp
 import os
 import sys
 import time
@@ -47,6 +46,7 @@ from tt_drake.camera_model import CameraConfig, CameraModel
 from tt_drake.constants import PLANES
 from tt_drake.diagrams.ball_world import BallOnlyWorld
 from tt_drake.diagrams.episodes import check_run, episode_seed
+from tt_drake.diagrams.workers import fork_context
 from tt_drake.errors import BadInputError
 from tt_drake.estimation import EstimatorConfig, nees, run_filter
 from tt_drake.hitting_point import (
@@ -271,8 +271,7 @@ def _generate_samples(n: int, base_seed: int, cache: Path | None, workers: int, 
             for c, seeds, path in todo:
                 store(c, path, _worker_chunk((seeds, distribution, base_seed)))
         else:
-            ctx = mp.get_context("fork")
-            with ctx.Pool(workers) as pool:
+            with fork_context().Pool(workers) as pool:
                 results = pool.imap(_worker_chunk, [(seeds, distribution, base_seed)
                                                     for _, seeds, _ in todo])
                 for (c, _, path), data in zip(todo, results, strict=True):
