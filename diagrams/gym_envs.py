@@ -256,6 +256,12 @@ class _ServeEnv:
             self._pages.add(result, diagram.poses())
         return reward, info
 
+    def close(self) -> None:
+        """Release the frame renderer (Drake's VTK render engine), here rather than whenever the
+        garbage collector finds it."""
+        self._renderer = None
+        super().close()
+
     def render(self):
         """``rgb_array``: the arm and the ball now, (H, W, 3) uint8 (:class:`FrameRenderer`);
         ``human``: writes the Meshcat page of the episodes so far to ``html`` (nothing before

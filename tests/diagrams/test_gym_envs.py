@@ -394,6 +394,7 @@ def test_rgb_array_frames_show_the_arm_and_the_ball():
     env = gymnasium.make("tt_drake/ReturnBall-v0", render_mode="rgb_array")
     env.reset(options={"serve_seed": SERVE})
     frame = env.render()
+    env.close()
     assert frame.shape == (360, 480, 3) and frame.dtype == np.uint8
     renderer = FrameRenderer(load_scenario().world)
     q = np.asarray(wp.AWAITING)
