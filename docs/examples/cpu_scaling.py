@@ -17,10 +17,10 @@ virtual CPUs sharing one physical core), not the code's. Used for docs/performan
 from __future__ import annotations
 
 import argparse
-import multiprocessing
 import time
 
 from tt_drake.diagrams.commands.options import add_scenario_option
+from tt_drake.diagrams.workers import fork_context
 
 
 def _python_work(n: int) -> float:
@@ -51,7 +51,7 @@ def _job(args) -> tuple[float, float]:
 
 def _run(kernel: str, size: int, workers: int,
          scenario: str = "default") -> list[tuple[float, float]]:
-    context = multiprocessing.get_context("fork")
+    context = fork_context()
     if workers == 1:
         process = context.Pool(1)
         try:
