@@ -124,7 +124,7 @@ class Referee(LeafSystem):
         self._racket_centre = racket_centre
         self._robot_bodies = set(robot_body_indices)
         self._table_geometries = set(table_geometry_ids)
-        self._clearance = table_clearance if racket_centre is not None else None
+        self.table_clearance = table_clearance  # None without a racket centre
         self._stop_below = stop_below
         self._stop_when_decided = stop_when_decided
         # The ports, kept: each 250 Hz sample reads them without looking them up (docs/

@@ -16,8 +16,8 @@ from pydrake.geometry import Box, Capsule, Cylinder, Ellipsoid, Sphere
 
 from tt_drake import ik_kernel
 from tt_drake.clearance_kernel import BLADE_CENTRE, table_gap
-from tt_drake.systems.wam import BASE_FRAME, RACKET_CENTER_FRAME, base_pose_in_world
-from tt_drake.wam_params import NUM_JOINTS, shoulder_pose_in_world
+from tt_drake.systems.wam import RACKET_CENTER_FRAME, shoulder_pose
+from tt_drake.wam_params import NUM_JOINTS
 
 #: The gap (m) below which the referee asks the plant for its contacts: far above the bound's
 #: rounding (~1e-15 m), so that a positive gap is never a contact.
@@ -81,10 +81,7 @@ class TableClearance:
         if plant.num_positions(robot) != NUM_JOINTS or not table_geometry_ids:
             return None
         context = plant.CreateDefaultContext()
-        base = plant.GetBodyByName(BASE_FRAME, robot)
-        x_w0 = (plant.EvalBodyPoseInWorld(context, base) @ base_pose_in_world().inverse()
-                ).GetAsMatrix4() @ shoulder_pose_in_world()
-        x_w0 = np.ascontiguousarray(x_w0)
+        x_w0 = np.ascontiguousarray(shoulder_pose(plant, robot, context))
         geometries = []  # (body, X_BG's translation, bounding radius)
         for index in plant.GetBodyIndices(robot):
             body = plant.get_body(index)

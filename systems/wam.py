@@ -85,6 +85,16 @@ def base_pose_in_world(mirrored: bool = False) -> RigidTransform:
     return pose
 
 
+def shoulder_pose(plant: MultibodyPlant, robot: ModelInstanceIndex, context=None) -> np.ndarray:
+    """X_W0 (4x4): ``robot``'s DH frame 0 in the world, where ``plant`` has its base plate
+    (welded anywhere, e.g. mirrored): X_WB X_WB,default^-1 times
+    :func:`tt_drake.wam_params.shoulder_pose_in_world`. ``context``: a context of ``plant``
+    (default: a new default one)."""
+    context = plant.CreateDefaultContext() if context is None else context
+    x_wb = plant.GetFrameByName(BASE_FRAME, robot).CalcPoseInWorld(context)
+    return (x_wb @ base_pose_in_world().inverse()).GetAsMatrix4() @ wp.shoulder_pose_in_world()
+
+
 def add_wam(plant: MultibodyPlant, *, weld_to_world: bool = True, urdf: str | Path | None = None,
             scene_graph: SceneGraph | None = None, mirrored: bool = False,
             name_prefix: str = "") -> ModelInstanceIndex:

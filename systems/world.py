@@ -16,7 +16,6 @@ from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
-import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.multibody.math import SpatialVelocity
 from pydrake.multibody.parsing import Parser
@@ -32,9 +31,9 @@ from pydrake.systems.framework import Diagram, DiagramBuilder, EventStatus
 
 from tt_drake.constants import BALL, NET, TABLE
 from tt_drake.errors import BadInputError
-from tt_drake.systems.hitting_ik import REACH_BOUND, SHOULDER
+from tt_drake.systems.hitting_ik import REACH_BOUND
 from tt_drake.systems.joint_stops import JointStopsConfig
-from tt_drake.systems.wam import BASE_FRAME, add_wam, base_pose_in_world
+from tt_drake.systems.wam import add_wam, shoulder_pose
 from tt_drake.wam_params import RACKET_CENTER_FRAME
 
 
@@ -274,18 +273,15 @@ class ContactAccuracy:
         self._radius = r
         # Every robot's racket (the rally has two): the blade centre stays within REACH_BOUND of
         # its shoulder, so a ball farther than that (plus the racket's distance) needs no
-        # forward kinematics. SHOULDER is in robot A's world frame; another robot's base pose
-        # maps it to that robot's shoulder.
+        # forward kinematics. Each robot's shoulder is where its base is welded (shoulder_pose).
         default = plant.CreateDefaultContext()
-        shoulder_in_base = base_pose_in_world().inverse().multiply(np.asarray(SHOULDER, float))
         self._rackets = []
         for i in range(plant.num_model_instances()):
             instance = ModelInstanceIndex(i)
             if not plant.HasFrameNamed(RACKET_CENTER_FRAME, instance):
                 continue
             frame = plant.GetFrameByName(RACKET_CENTER_FRAME, instance)
-            x_wb = plant.GetFrameByName(BASE_FRAME, instance).CalcPoseInWorld(default)
-            shoulder = tuple(float(c) for c in x_wb.multiply(shoulder_in_base))
+            shoulder = tuple(float(c) for c in shoulder_pose(plant, instance, default)[:3, 3])
             self._rackets.append((frame.body(), frame.GetFixedPoseInBodyFrame().translation(),
                                   shoulder, REACH_BOUND))
         # The ball's position and velocity in the plant's state [q; v] (q: quaternion, then
