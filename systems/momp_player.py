@@ -112,6 +112,25 @@ MOVING_GOAL_CUTOFF = 0.08
 MOVING_GOAL_TORQUE_FRACTION = 1.2
 
 
+def arm_follows(x: np.ndarray, q: np.ndarray, velocity: np.ndarray, hold_speed: float,
+                hold_error: float) -> bool:
+    """Whether the measured arm ``x = (q_m, q_dot_m)`` (2n values) follows the plan's positions
+    ``q`` (n): for every joint j, |q_dot_m,j| <= ``hold_speed`` v_max,j (``velocity``) and
+    |q_m,j - q_j| <= ``hold_error``; a NaN fails. The planning tick's safety check
+    (:meth:`MoMPTrajectorySource._hold_if_lost`), on Python floats: each product and comparison
+    is the one numpy's array expressions make, so the verdict is theirs, without the temporary
+    arrays they build at every tick (docs/performance.md, "The players' Python")."""
+    x, q, velocity = x.tolist(), q.tolist(), velocity.tolist()
+    n = len(q)
+    for j in range(n):
+        if not abs(x[n + j]) <= hold_speed * velocity[j]:
+            return False
+    for j in range(n):
+        if not abs(x[j] - q[j]) <= hold_error:
+            return False
+    return True
+
+
 @dataclass(frozen=True)
 class MoMPConfig:
     replan_position: float = 0.003  # m
@@ -534,8 +553,7 @@ class MoMPTrajectorySource(StagePlanPlayer):
         x = self._arm_state.Eval(context)
         planned = self._planned.row(old.plan, now)
         q = old.plan.evaluate(now)[0] if planned is None else planned[:7]
-        if ((np.abs(x[7:]) <= cfg.hold_speed * self.limits.velocity).all()
-                and float(np.abs(x[:7] - q).max()) <= cfg.hold_error):
+        if arm_follows(x, q, self.limits.velocity, cfg.hold_speed, cfg.hold_error):
             return False
         stroke = None if old.stroke is None else replace(old.stroke, held=True)
         state.get_mutable_abstract_state(self._index).set_value(

@@ -26,6 +26,8 @@ after the other do not. Levers:
 - ``momp-tables``: the last three together;
 - ``crossing-memo``: the hitting-point predictor integrates each plane crossing once per tick
   (``HittingPointPredictor._plane`` keeps the last) against integrating it for every caller;
+- ``hold-check``: the MoMP player's safety check on Python floats
+  (``momp_player.arm_follows``) against the numpy array expressions it replaced;
 - ``guard``: the MoMP player's safety guard (the measured arm checked against the plan at every
   planning tick, ``MoMPConfig.hold_error``) on against off (off changes no outcome
   unless a stroke would have been held);
@@ -57,10 +59,10 @@ after the other do not. Levers:
 
 It also counts the serves whose outcome and episode duration are equal both ways (``did-nothing``,
 ``setpoint-table``, ``hold-table``, ``momp-did-nothing``, ``crossing-memo``, ``quintic-kernel``,
-``wrist-test``, ``snopt-quiet`` and ``table-clearance`` change no number; ``ik-sqp`` changes
-strokes by the solvers' tolerances, so the outcome check for it is ``compare_serves.py`` on 100
-serves; ``segments`` may move the integrator's steps, and the outcome check for it is
-``compare_serves.py`` on 100 serves).
+``wrist-test``, ``snopt-quiet``, ``table-clearance`` and ``hold-check`` change no number;
+``ik-sqp`` changes strokes by the solvers' tolerances, so the outcome check for it is
+``compare_serves.py`` on 100 serves; ``segments`` may move the integrator's steps, and the
+outcome check for it is ``compare_serves.py`` on 100 serves).
 """
 
 from __future__ import annotations
@@ -91,6 +93,12 @@ from tt_drake.systems.hitting_ik import (
 _DID_NOTHING_MODULES = ("tt_drake.systems.ball_flight_estimator",
                         "tt_drake.systems.hitting_point_predictor")
 _PLAYERS = ("momp_player", "analytical_player")  # the crkr player is "momp_player" too
+
+
+def _arm_follows_numpy(x, q, velocity, hold_speed, hold_error) -> bool:
+    """``momp_player.arm_follows`` as numpy array expressions (the ``hold-check`` lever off)."""
+    return bool((np.abs(x[7:]) <= hold_speed * velocity).all()
+                and float(np.abs(x[:7] - q).max()) <= hold_error)
 
 
 def _aims_before(self, p_hit, v_hit, spin, previous):
@@ -151,6 +159,11 @@ def toggles(diagram: ServeDiagram) -> dict:
 
     def guard(on: bool) -> None:
         player().config = guarded if on else dataclasses.replace(guarded, hold_error=None)
+
+    follows = momp.arm_follows
+
+    def hold_check(on: bool) -> None:
+        momp.arm_follows = follows if on else _arm_follows_numpy
 
     def analytical():
         return diagram.diagram.GetSubsystemByName("analytical_player")
@@ -223,7 +236,8 @@ def toggles(diagram: ServeDiagram) -> dict:
             "teacher-all": teacher_all,
             "segments": segments, "did-nothing": did_nothing, "setpoint-table": setpoint_table,
             "hold-table": hold_table, "momp-did-nothing": momp_did_nothing,
-            "momp-tables": momp_tables, "crossing-memo": crossing_memo, "guard": guard}
+            "momp-tables": momp_tables, "crossing-memo": crossing_memo, "guard": guard,
+            "hold-check": hold_check}
 
 
 def main() -> None:
@@ -233,7 +247,7 @@ def main() -> None:
                                       "guard",
                                       "prediction-step", "prediction-cutoff", "close-aim",
                                       "teacher-all", "quintic-kernel", "wrist-test",
-                                      "snopt-quiet", "ik-sqp", "table-clearance"))
+                                      "snopt-quiet", "ik-sqp", "table-clearance", "hold-check"))
     ap.add_argument("--player", default="momp")
     ap.add_argument("--serves", type=int, default=12)
     ap.add_argument("--seed", type=int, default=3)

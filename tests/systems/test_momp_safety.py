@@ -13,6 +13,7 @@ from tt_drake.systems.momp_player import (
     MOVING_GOAL_TORQUE_FRACTION,
     MoMPConfig,
     MoMPTrajectorySource,
+    arm_follows,
     momp_config,
 )
 from tt_drake.wam_params import EFFORT_LIMIT
@@ -107,6 +108,41 @@ def test_no_hold_without_the_measured_arm_or_with_it_off():
         before = player.player_state(context)
         after = _tick(player, context)
         assert not after.stroke.held and after.plan is before.plan
+
+
+def test_the_check_on_floats_gives_the_array_expressions_verdict():
+    """arm_follows: every joint within hold_speed v_max and within hold_error of the plan, as
+    the array expressions (|q_dot| <= s v).all() and max |q - q_plan| <= e decide it, on random
+    arms, arms exactly at either bound, and a NaN (which fails)."""
+    velocity = MoMPTrajectorySource(None, None).limits.velocity
+    speed, error = 1.5, 0.5  # with q in eighths, q + error and speed * v_max are exact
+    rng = np.random.default_rng(7)
+
+    def numpy_verdict(x, q):
+        return bool((np.abs(x[7:]) <= speed * velocity).all()
+                    and float(np.abs(x[:7] - q).max()) <= error)
+
+    cases = []
+    for _ in range(2000):
+        q = rng.uniform(-2.0, 2.0, 7)
+        x = np.concatenate([q + rng.uniform(-0.55, 0.55, 7),
+                            rng.uniform(-1.6, 1.6, 7) * velocity])
+        cases.append((x, q))
+    q = np.round(rng.uniform(-2.0, 2.0, 7) * 8.0) / 8.0
+    at_bounds = np.concatenate([q, speed * velocity])
+    at_bounds[3] = q[3] + error
+    cases += [(at_bounds, q), (-at_bounds, -q)]
+    for j in (0, 6, 9, 13):
+        x = at_bounds.copy()
+        x[j] = np.nextafter(x[j], np.inf)
+        cases.append((x, q))
+        x = at_bounds.copy()
+        x[j] = np.nan
+        cases.append((x, q))
+    verdicts = [arm_follows(x, q, velocity, speed, error) for x, q in cases]
+    assert verdicts == [numpy_verdict(x, q) for x, q in cases]
+    assert 200 < sum(verdicts) < len(cases) - 200  # both verdicts, many times
+    assert arm_follows(at_bounds, q, velocity, speed, error)
 
 
 @pytest.fixture
