@@ -85,12 +85,10 @@ def base_pose_in_world(mirrored: bool = False) -> RigidTransform:
     return pose
 
 
-def shoulder_pose(plant: MultibodyPlant, robot: ModelInstanceIndex, context=None) -> np.ndarray:
+def shoulder_pose(plant: MultibodyPlant, robot: ModelInstanceIndex, context) -> np.ndarray:
     """X_W0 (4x4): ``robot``'s DH frame 0 in the world, where ``plant`` has its base plate
-    (welded anywhere, e.g. mirrored): X_WB X_WB,default^-1 times
-    :func:`tt_drake.wam_params.shoulder_pose_in_world`. ``context``: a context of ``plant``
-    (default: a new default one)."""
-    context = plant.CreateDefaultContext() if context is None else context
+    (welded anywhere, e.g. mirrored) in ``context`` (a context of ``plant``): X_WB
+    X_WB,default^-1 times :func:`tt_drake.wam_params.shoulder_pose_in_world`."""
     x_wb = plant.GetFrameByName(BASE_FRAME, robot).CalcPoseInWorld(context)
     return (x_wb @ base_pose_in_world().inverse()).GetAsMatrix4() @ wp.shoulder_pose_in_world()
 
